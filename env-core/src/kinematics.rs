@@ -1,0 +1,371 @@
+//! Forward and inverse kinematics as pure functions of the joint configuration, in f64 on
+//! nalgebra. They agree with the physics engine's link poses (see the `physics` tests) but never
+//! touch it, so a policy or a user can call them on any `q`.
+
+use nalgebra::{Isometry3, Matrix6, UnitQuaternion, Vector3, Vector6};
+
+use crate::error::{Error, Result};
+use crate::model::{JointType, RobotModel};
+
+/// Settings of the damped-least-squares IK solver.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IkOptions {
+    /// Maximum number of Gauss-Newton steps.
+    pub max_iterations: usize,
+    /// Stop when the position error is below this (m).
+    pub position_tolerance: f64,
+    /// Stop when the orientation error is below this (rad).
+    pub orientation_tolerance: f64,
+    /// Damping of the least-squares step; larger is more robust near singularities, slower.
+    pub damping: f64,
+    /// Largest change of any joint in one step (rad or m), so far targets are approached
+    /// gradually instead of overshooting.
+    pub max_step: f64,
+}
+
+impl Default for IkOptions {
+    fn default() -> Self {
+        Self {
+            max_iterations: 100,
+            position_tolerance: 1e-6,
+            orientation_tolerance: 1e-5,
+            damping: 1e-3,
+            max_step: 0.2,
+        }
+    }
+}
+
+/// The result of an inverse-kinematics solve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IkSolution {
+    /// The full configuration (all actuated joints; those outside the chain keep their value).
+    pub q: Vec<f64>,
+    /// Remaining TCP position error (m).
+    pub position_error: f64,
+    /// Remaining TCP orientation error (rad); 0 for position-only solves.
+    pub orientation_error: f64,
+    /// Steps taken.
+    pub iterations: usize,
+    /// Whether both errors fell below their tolerances.
+    pub converged: bool,
+}
+
+impl IkSolution {
+    /// `Ok(self)` if converged, else [`Error::IkNotConverged`] with the remaining errors.
+    pub fn into_result(self) -> Result<Self> {
+        if self.converged {
+            Ok(self)
+        } else {
+            Err(Error::IkNotConverged {
+                position_error: self.position_error,
+                orientation_error: self.orientation_error,
+                iterations: self.iterations,
+            })
+        }
+    }
+}
+
+impl RobotModel {
+    /// World-frame pose of every link (indexed like [`RobotModel::links`]) for configuration `q`,
+    /// with the root link at `base`.
+    pub fn link_poses(&self, q: &[f64], base: &Isometry3<f64>) -> Result<Vec<Isometry3<f64>>> {
+        self.validate_configuration(q)?;
+        let mut positions = vec![0.0; self.joints().len()];
+        self.expand_positions(q, &mut positions);
+        let mut poses = vec![Isometry3::identity(); self.links().len()];
+        poses[self.root_link()] = *base;
+        for &j in self.topological_joints() {
+            let joint = &self.joints()[j];
+            poses[joint.child_link_index] =
+                poses[joint.parent_link_index] * self.joint_transform(j, positions[j]);
+        }
+        Ok(poses)
+    }
+
+    /// World-frame pose of the link named `link` for configuration `q`.
+    pub fn link_pose(&self, link: &str, q: &[f64], base: &Isometry3<f64>) -> Result<Isometry3<f64>> {
+        let index = self.link_index(link)?;
+        self.validate_configuration(q)?;
+        Ok(self.chain_pose(index, q, base))
+    }
+
+    /// World-frame pose of the tool centre point for configuration `q`.
+    pub fn tcp_pose(&self, q: &[f64], base: &Isometry3<f64>) -> Result<Isometry3<f64>> {
+        self.validate_configuration(q)?;
+        Ok(self.chain_pose(self.tcp().link, q, base) * self.tcp().offset)
+    }
+
+    /// The joints from the root down to `link`, root first.
+    fn chain_to(&self, link: usize) -> Vec<usize> {
+        let mut chain = Vec::new();
+        let mut current = link;
+        while let Some(j) = self.links()[current].parent_joint {
+            chain.push(j);
+            current = self.joints()[j].parent_link_index;
+        }
+        chain.reverse();
+        chain
+    }
+
+    fn joint_position(&self, joint: usize, q: &[f64]) -> f64 {
+        let j = &self.joints()[joint];
+        match (j.dof, j.mimic) {
+            (Some(d), _) => q[d],
+            (None, Some(m)) => {
+                m.multiplier * self.joints()[m.master].dof.map_or(0.0, |d| q[d]) + m.offset
+            }
+            (None, None) => 0.0,
+        }
+    }
+
+    fn chain_pose(&self, link: usize, q: &[f64], base: &Isometry3<f64>) -> Isometry3<f64> {
+        self.chain_to(link).into_iter().fold(*base, |pose, j| {
+            pose * self.joint_transform(j, self.joint_position(j, q))
+        })
+    }
+
+    /// Damped-least-squares inverse kinematics for the tool centre point.
+    ///
+    /// Finds `q` whose TCP reaches `position` and, when given, `orientation` (world frame),
+    /// starting from `q_start` (warm start: pass the current configuration). Only joints on the
+    /// chain from the root to the TCP link move; every step is clamped into the joint limits.
+    /// Returns the best configuration found with its remaining error; check
+    /// [`IkSolution::converged`] or call [`IkSolution::into_result`].
+    pub fn inverse_kinematics(
+        &self,
+        position: &Vector3<f64>,
+        orientation: Option<&UnitQuaternion<f64>>,
+        q_start: &[f64],
+        base: &Isometry3<f64>,
+        options: &IkOptions,
+    ) -> Result<IkSolution> {
+        self.validate_configuration(q_start)?;
+        crate::error::ensure_all_finite("IK target position", position.as_slice())?;
+        if let Some(o) = orientation {
+            crate::error::ensure_all_finite("IK target orientation", o.coords.as_slice())?;
+        }
+        let chain = self.chain_to(self.tcp().link);
+        // Each chain joint contributes to the column of the dof that drives it.
+        let columns: Vec<(usize, usize, f64)> = chain
+            .iter()
+            .filter_map(|&j| {
+                let joint = &self.joints()[j];
+                match (joint.dof, joint.mimic) {
+                    (Some(d), _) => Some((j, d, 1.0)),
+                    (None, Some(m)) => self.joints()[m.master].dof.map(|d| (j, d, m.multiplier)),
+                    (None, None) => None,
+                }
+            })
+            .collect();
+        let mut dofs: Vec<usize> = columns.iter().map(|c| c.1).collect();
+        dofs.sort_unstable();
+        dofs.dedup();
+
+        let mut q = q_start.to_vec();
+        self.clamp_configuration(&mut q);
+        let rows = if orientation.is_some() { 6 } else { 3 };
+        let mut joint_frames: Vec<(Vector3<f64>, Vector3<f64>, JointType)> =
+            Vec::with_capacity(chain.len());
+        let mut iterations = 0;
+        loop {
+            // Forward pass along the chain, remembering each joint's world axis and origin.
+            joint_frames.clear();
+            let mut pose = *base;
+            for &j in &chain {
+                let joint = &self.joints()[j];
+                let frame = pose * joint.origin;
+                joint_frames.push((
+                    frame.rotation * joint.axis,
+                    frame.translation.vector,
+                    joint.joint_type,
+                ));
+                pose *= self.joint_transform(j, self.joint_position(j, &q));
+            }
+            let tcp = pose * self.tcp().offset;
+            let p = tcp.translation.vector;
+            let position_error = position - p;
+            let orientation_error = orientation
+                .map(|target| (target * tcp.rotation.inverse()).scaled_axis())
+                .unwrap_or_else(Vector3::zeros);
+            let (pe, oe) = (position_error.norm(), orientation_error.norm());
+            let converged = pe < options.position_tolerance
+                && (orientation.is_none() || oe < options.orientation_tolerance);
+            if converged || iterations >= options.max_iterations {
+                return Ok(IkSolution {
+                    q,
+                    position_error: pe,
+                    orientation_error: oe,
+                    iterations,
+                    converged,
+                });
+            }
+            iterations += 1;
+
+            // Geometric Jacobian (6 x dofs), columns in `dofs` order.
+            let mut jac = nalgebra::DMatrix::<f64>::zeros(rows, dofs.len());
+            for (k, &(_, dof, gain)) in columns.iter().enumerate() {
+                let (axis, origin, kind) = joint_frames[chain_position(&chain, columns[k].0)];
+                let col = dofs.binary_search(&dof).unwrap_or(0);
+                let (lin, ang) = match kind {
+                    JointType::Prismatic => (axis, Vector3::zeros()),
+                    _ => (axis.cross(&(p - origin)), axis),
+                };
+                for r in 0..3 {
+                    jac[(r, col)] += gain * lin[r];
+                    if rows == 6 {
+                        jac[(r + 3, col)] += gain * ang[r];
+                    }
+                }
+            }
+            let mut err = Vector6::zeros();
+            err.fixed_rows_mut::<3>(0).copy_from(&position_error);
+            err.fixed_rows_mut::<3>(3).copy_from(&orientation_error);
+            let err = err.rows(0, rows).into_owned();
+            let mut jjt = &jac * jac.transpose();
+            let lambda2 = options.damping * options.damping;
+            for r in 0..rows {
+                jjt[(r, r)] += lambda2;
+            }
+            let Some(y) = solve_spd(jjt, err) else {
+                return Ok(IkSolution {
+                    q,
+                    position_error: pe,
+                    orientation_error: oe,
+                    iterations,
+                    converged: false,
+                });
+            };
+            let mut dq = jac.transpose() * y;
+            let largest = dq.amax();
+            if largest > options.max_step {
+                dq *= options.max_step / largest;
+            }
+            for (col, &dof) in dofs.iter().enumerate() {
+                q[dof] += dq[col];
+            }
+            self.clamp_configuration(&mut q);
+        }
+    }
+}
+
+fn chain_position(chain: &[usize], joint: usize) -> usize {
+    chain.iter().position(|&j| j == joint).unwrap_or(0)
+}
+
+/// Solves `a x = b` for a symmetric positive definite `a` of size 3 or 6 (the damped normal
+/// equations); `None` if it is not positive definite (cannot happen with damping > 0 unless
+/// the inputs are not finite).
+fn solve_spd(a: nalgebra::DMatrix<f64>, b: nalgebra::DVector<f64>) -> Option<nalgebra::DVector<f64>> {
+    if a.nrows() == 6 {
+        let a6 = Matrix6::from_iterator(a.iter().copied());
+        let b6 = Vector6::from_iterator(b.iter().copied());
+        let x = a6.cholesky()?.solve(&b6);
+        Some(nalgebra::DVector::from_column_slice(x.as_slice()))
+    } else {
+        a.cholesky().map(|c| c.solve(&b))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ready() -> Vec<f64> {
+        vec![0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.04]
+    }
+
+    #[test]
+    fn zero_configuration_matches_the_published_geometry() {
+        let model = RobotModel::panda().unwrap();
+        let q = vec![0.0, 0.0, 0.0, -0.0698, 0.0, 0.0, 0.0, 0.0];
+        let mut q0 = q.clone();
+        q0[3] = 0.0;
+        // At q = 0 the flange sits at x = 0.088, z = 0.333 + 0.316 + 0.384 - 0.107.
+        let poses = {
+            let mut positions = vec![0.0; model.joints().len()];
+            model.expand_positions(&q0, &mut positions);
+            let mut poses = vec![Isometry3::identity(); model.links().len()];
+            for &j in model.topological_joints() {
+                let joint = &model.joints()[j];
+                poses[joint.child_link_index] =
+                    poses[joint.parent_link_index] * model.joint_transform(j, positions[j]);
+            }
+            poses
+        };
+        let flange = poses[model.link_index("panda_link8").unwrap()].translation.vector;
+        assert!((flange - Vector3::new(0.088, 0.0, 0.926)).norm() < 1e-9, "{flange}");
+        let tcp = model.tcp_pose(&q, &Isometry3::identity()).unwrap();
+        assert!(tcp.translation.z < 0.926 - 0.1);
+    }
+
+    #[test]
+    fn ik_reaches_a_pose_it_was_generated_from() {
+        let model = RobotModel::panda().unwrap();
+        let base = Isometry3::identity();
+        let mut target_q = ready();
+        target_q[0] = 0.3;
+        target_q[1] = -0.4;
+        target_q[3] = -2.0;
+        let target = model.tcp_pose(&target_q, &base).unwrap();
+        let sol = model
+            .inverse_kinematics(
+                &target.translation.vector,
+                Some(&target.rotation),
+                &ready(),
+                &base,
+                &IkOptions::default(),
+            )
+            .unwrap()
+            .into_result()
+            .unwrap();
+        let reached = model.tcp_pose(&sol.q, &base).unwrap();
+        assert!((reached.translation.vector - target.translation.vector).norm() < 1e-6);
+        assert!(reached.rotation.angle_to(&target.rotation) < 1e-5);
+        assert!(sol.iterations < 30, "{} iterations", sol.iterations);
+        for (&j, &v) in model.actuated_joints().iter().zip(&sol.q) {
+            let joint = &model.joints()[j];
+            assert!(v >= joint.lower && v <= joint.upper, "{} = {v}", joint.name);
+        }
+        assert_eq!(sol.q[7], 0.04, "the gripper is not on the TCP chain");
+    }
+
+    #[test]
+    fn unreachable_targets_report_their_error_instead_of_failing_silently() {
+        let model = RobotModel::panda().unwrap();
+        let sol = model
+            .inverse_kinematics(
+                &Vector3::new(3.0, 0.0, 0.5),
+                None,
+                &ready(),
+                &Isometry3::identity(),
+                &IkOptions::default(),
+            )
+            .unwrap();
+        assert!(!sol.converged);
+        assert!(sol.position_error > 2.0);
+        assert!(matches!(sol.into_result(), Err(Error::IkNotConverged { .. })));
+    }
+
+    #[test]
+    fn bad_inputs_are_typed_errors() {
+        let model = RobotModel::panda().unwrap();
+        let base = Isometry3::identity();
+        assert!(matches!(
+            model.tcp_pose(&[0.0; 3], &base),
+            Err(Error::WrongLength { expected: 8, got: 3, .. })
+        ));
+        let mut q = ready();
+        q[2] = f64::NAN;
+        assert!(matches!(model.tcp_pose(&q, &base), Err(Error::NonFinite { .. })));
+        let err = model
+            .inverse_kinematics(
+                &Vector3::new(f64::INFINITY, 0.0, 0.0),
+                None,
+                &ready(),
+                &base,
+                &IkOptions::default(),
+            )
+            .unwrap_err();
+        assert!(matches!(err, Error::NonFinite { .. }));
+    }
+}

@@ -1,0 +1,27 @@
+//! # panda-rapier-core
+//!
+//! The simulation core of panda_rapier: a Franka Panda on a fixed base, a platform and a cube,
+//! simulated with rapier3d, with a friction grasp (no attachment constraint), joint position,
+//! velocity and torque control, and forward/inverse kinematics as pure functions of the joint
+//! configuration.
+//!
+//! - [`RobotModel`]: the robot description read from a URDF (introspection, kinematics).
+//! - [`Simulation`]: one physics world; the only type that talks to rapier.
+//! - [`SimConfig`]: validated, serde-deserialisable configuration.
+//! - [`Error`]: every failure, typed.
+
+pub mod assets;
+pub mod config;
+pub mod error;
+pub mod kinematics;
+pub mod model;
+pub mod physics;
+
+pub use config::{CubeConfig, MotorConfig, PlatformConfig, SimConfig, SolverConfig, PANDA_READY};
+pub use error::{Error, Result};
+pub use kinematics::{IkOptions, IkSolution};
+pub use model::{JointInfo, JointType, LinkInfo, Mimic, RobotModel, Tcp};
+pub use physics::{BodyState, CubeContacts, JointControl, JointState, LinkState, Simulation};
+
+/// Re-exported so users can name the math types of the API without a second nalgebra.
+pub use nalgebra;

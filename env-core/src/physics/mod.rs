@@ -1,0 +1,992 @@
+//! The simulation: the only module that talks to rapier.
+//!
+//! A [`Simulation`] holds one physics world with a floor, a fixed platform, a dynamic cube and a
+//! robot built from a [`RobotModel`] as a rapier multibody (reduced coordinates) with joint
+//! motors. Everything it hands out is in f64 nalgebra types; rapier's types stay inside.
+
+mod convert;
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use rapier3d::dynamics::{
+    JointAxis, MultibodyDofCoupling, MultibodyIndex, RigidBodyBuilder, RigidBodyHandle,
+};
+use rapier3d::geometry::{ColliderBuilder, ColliderHandle, Group, InteractionGroups, MeshConverter};
+use rapier3d::math::Vector;
+use rapier3d::pipeline::PhysicsWorld;
+use rapier3d_urdf::{UrdfLoaderOptions, UrdfMultibodyOptions, UrdfRobot};
+
+use crate::config::{SimConfig, PANDA_READY};
+use crate::error::{ensure_all_finite, ensure_finite, ensure_len, Error, Result};
+use crate::model::{JointType, RobotModel};
+use convert::{pose_from_na, vec_from_array, vec_from_na, vec_to_na};
+
+/// How one actuated joint is driven.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum JointControl {
+    /// Drive to `target` (rad or m, clamped into the joint limits) with a PD motor, optionally
+    /// tracking `target_velocity`, using at most `max_force` (`None`: the joint's effort limit).
+    Position {
+        /// Target position.
+        target: f64,
+        /// Velocity feed-forward (rad/s or m/s).
+        target_velocity: f64,
+        /// Force or torque limit.
+        max_force: Option<f64>,
+    },
+    /// Drive to `target` velocity using at most `max_force` (`None`: the effort limit).
+    Velocity {
+        /// Target velocity.
+        target: f64,
+        /// Force or torque limit.
+        max_force: Option<f64>,
+    },
+    /// Apply this joint torque (N m) or force (N), clamped to the effort limit; the motor is
+    /// switched off.
+    Torque(f64),
+}
+
+impl JointControl {
+    /// Position control at the joint's effort limit.
+    pub fn position(target: f64) -> Self {
+        JointControl::Position {
+            target,
+            target_velocity: 0.0,
+            max_force: None,
+        }
+    }
+
+    /// Velocity control at the joint's effort limit.
+    pub fn velocity(target: f64) -> Self {
+        JointControl::Velocity {
+            target,
+            max_force: None,
+        }
+    }
+
+    fn validate(&self, joint: &str) -> Result<()> {
+        let check_force = |f: Option<f64>| -> Result<()> {
+            if let Some(f) = f {
+                ensure_finite(|| format!("max_force of joint `{joint}`"), f)?;
+                if f < 0.0 {
+                    return Err(Error::InvalidConfig {
+                        field: format!("max_force of joint `{joint}`"),
+                        reason: format!("must be >= 0, got {f}"),
+                    });
+                }
+            }
+            Ok(())
+        };
+        match *self {
+            JointControl::Position {
+                target,
+                target_velocity,
+                max_force,
+            } => {
+                ensure_finite(|| format!("position target of joint `{joint}`"), target)?;
+                ensure_finite(
+                    || format!("target velocity of joint `{joint}`"),
+                    target_velocity,
+                )?;
+                check_force(max_force)
+            }
+            JointControl::Velocity { target, max_force } => {
+                ensure_finite(|| format!("velocity target of joint `{joint}`"), target)?;
+                check_force(max_force)
+            }
+            JointControl::Torque(t) => {
+                ensure_finite(|| format!("torque of joint `{joint}`"), t).map(|_| ())
+            }
+        }
+    }
+}
+
+/// Pose and velocity of a body, world frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BodyState {
+    /// Position of the body frame's origin (m).
+    pub position: Vector3<f64>,
+    /// Orientation.
+    pub orientation: UnitQuaternion<f64>,
+    /// Velocity of the body frame's origin (m/s).
+    pub linear_velocity: Vector3<f64>,
+    /// Angular velocity (rad/s).
+    pub angular_velocity: Vector3<f64>,
+}
+
+/// State and physical properties of one robot link.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinkState {
+    /// Link index (as in [`RobotModel::links`]).
+    pub index: usize,
+    /// Link name.
+    pub name: String,
+    /// Mass (kg) from the robot description.
+    pub mass: f64,
+    /// Friction coefficient of the link's colliders (0 when it has none).
+    pub friction: f64,
+    /// Pose and velocity of the link frame.
+    pub state: BodyState,
+}
+
+/// Position and velocity of one joint.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointState {
+    /// Position (rad or m).
+    pub position: f64,
+    /// Velocity (rad/s or m/s).
+    pub velocity: f64,
+}
+
+/// What the cube is touching right now.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct CubeContacts {
+    /// Robot links (indices into [`RobotModel::links`]) with an active contact.
+    pub robot_links: Vec<usize>,
+    /// Touching the floor.
+    pub floor: bool,
+    /// Touching the platform.
+    pub platform: bool,
+}
+
+const STATIC_GROUP: Group = Group::GROUP_1;
+const CUBE_GROUP: Group = Group::GROUP_2;
+/// Links that cannot reach the floor or the platform (the base and the first link), so their
+/// pairs with the scenery are never tested.
+const PROXIMAL_GROUP: Group = Group::GROUP_3;
+const ARM_GROUP: Group = Group::GROUP_4;
+
+/// Where a joint of the model lives in the rapier multibody.
+#[derive(Debug, Clone, Copy)]
+struct DofSlot {
+    /// Multibody link id of the joint's child body.
+    link_id: usize,
+    /// Index of the joint's coordinate in the link joint's `coords()` (0 for a prismatic joint
+    /// along its x axis, 3 for a revolute joint about it).
+    coord: usize,
+    /// The rapier joint axis the motor acts on.
+    axis: JointAxis,
+    /// Rigid body of the joint's child link, and of its parent link.
+    child_body: RigidBodyHandle,
+    parent_body: RigidBodyHandle,
+}
+
+/// One physics world: the robot, the floor, the platform and the cube.
+pub struct Simulation {
+    config: SimConfig,
+    model: RobotModel,
+    base: Isometry3<f64>,
+    world: PhysicsWorld,
+    multibody: MultibodyIndex,
+    /// Rigid body of each model link that has one (frame-only links are folded into a parent).
+    link_bodies: Vec<Option<RigidBodyHandle>>,
+    /// Collider friction of each model link.
+    link_friction: Vec<f64>,
+    /// Multibody slot of each model joint; `None` for fixed joints.
+    joint_slots: Vec<Option<DofSlot>>,
+    /// Current command of each actuated joint (indexed by dof).
+    controls: Vec<JointControl>,
+    /// The gripper's driving joint (index into joints), when the robot has one.
+    gripper_joint: Option<usize>,
+    robot_colliders: Vec<(ColliderHandle, usize)>,
+    cube: RigidBodyHandle,
+    cube_collider: ColliderHandle,
+    floor_collider: ColliderHandle,
+    platform_collider: ColliderHandle,
+    time: f64,
+    steps: u64,
+}
+
+impl std::fmt::Debug for Simulation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Simulation")
+            .field("robot", &self.model.name())
+            .field("time", &self.time)
+            .field("steps", &self.steps)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Simulation {
+    /// Builds the world described by `config` (the bundled Panda unless `robot_urdf` is set).
+    pub fn new(config: SimConfig) -> Result<Self> {
+        config.validate()?;
+        let model = match &config.robot_urdf {
+            Some(path) => RobotModel::from_urdf_file(path)?,
+            None => RobotModel::panda()?,
+        };
+        Self::with_model(config, model)
+    }
+
+    /// Builds the world around an already loaded robot description.
+    pub fn with_model(config: SimConfig, model: RobotModel) -> Result<Self> {
+        config.validate()?;
+        let mut world = PhysicsWorld::new();
+        world.gravity = vec_from_array(config.gravity);
+        let p = &mut world.integration_parameters;
+        let s = &config.solver;
+        p.dt = s.dt as f32;
+        p.num_solver_iterations = s.solver_iterations as usize;
+        p.length_unit = s.length_unit as f32;
+        p.contact_softness.natural_frequency = s.contact_natural_frequency as f32;
+        p.contact_softness.damping_ratio = s.contact_damping_ratio as f32;
+        // Stale recycled contacts let the fingers "hold" the cube 7-8 mm short of touching it,
+        // and without friction in the bias pass a squeezed cube creeps out of the grip.
+        p.contact_recycling = false;
+        p.friction_in_bias_pass = true;
+
+        let base = Isometry3::translation(
+            config.robot_base[0],
+            config.robot_base[1],
+            config.robot_base[2],
+        );
+
+        // Scenery.
+        let floor_body = world.bodies.insert(RigidBodyBuilder::fixed().build());
+        let floor_collider = world.colliders.insert_with_parent(
+            ColliderBuilder::halfspace(nalgebra::Unit::new_unchecked(Vector::Z))
+                .friction(config.floor_friction as f32)
+                .collision_groups(InteractionGroups::new(
+                    STATIC_GROUP,
+                    CUBE_GROUP | ARM_GROUP,
+                    Default::default(),
+                ))
+                .build(),
+            floor_body,
+            &mut world.bodies,
+        );
+        let pc = &config.platform;
+        let platform_body = world.bodies.insert(
+            RigidBodyBuilder::fixed()
+                .translation(vec_from_array([
+                    pc.top_center[0],
+                    pc.top_center[1],
+                    pc.top_center[2] - pc.size[2] / 2.0,
+                ]))
+                .build(),
+        );
+        let platform_collider = world.colliders.insert_with_parent(
+            ColliderBuilder::cuboid(
+                (pc.size[0] / 2.0) as f32,
+                (pc.size[1] / 2.0) as f32,
+                (pc.size[2] / 2.0) as f32,
+            )
+            .friction(pc.friction as f32)
+            .collision_groups(InteractionGroups::new(
+                STATIC_GROUP,
+                CUBE_GROUP | ARM_GROUP,
+                Default::default(),
+            ))
+            .build(),
+            platform_body,
+            &mut world.bodies,
+        );
+
+        // The cube.
+        let cc = &config.cube;
+        let cube = world.bodies.insert(
+            RigidBodyBuilder::dynamic()
+                .translation(vec_from_array(cc.position))
+                .can_sleep(false)
+                .build(),
+        );
+        let half = (cc.size / 2.0) as f32;
+        let cube_collider = world.colliders.insert_with_parent(
+            ColliderBuilder::cuboid(half, half, half)
+                .mass(cc.mass as f32)
+                .friction(cc.friction as f32)
+                .collision_groups(InteractionGroups::new(
+                    CUBE_GROUP,
+                    Group::ALL,
+                    Default::default(),
+                ))
+                .build(),
+            cube,
+            &mut world.bodies,
+        );
+
+        // The robot, as one multibody.
+        let options = UrdfLoaderOptions {
+            make_roots_fixed: true,
+            shift: pose_from_na(&base),
+            rigid_body_blueprint: RigidBodyBuilder::dynamic().can_sleep(false),
+            // Mesh colliders on moving links must be convex to collide with the cube.
+            mesh_converter: Some(MeshConverter::ConvexHull),
+            ..Default::default()
+        };
+        let urdf_robot = UrdfRobot::from_robot(model.urdf(), options, std::path::Path::new("/"));
+        let link_sources: Vec<usize> = urdf_robot
+            .links
+            .iter()
+            .map(|l| l.urdf_link_index)
+            .collect();
+        let joint_sources: Vec<usize> = urdf_robot
+            .joints
+            .iter()
+            .map(|j| j.source_urdf_joint_index())
+            .collect();
+        let handles = urdf_robot.insert_using_multibody_joints(
+            &mut world.bodies,
+            &mut world.colliders,
+            &mut world.multibody_joints,
+            UrdfMultibodyOptions::DISABLE_SELF_CONTACTS,
+        );
+
+        let gripper_joint = find_gripper_joint(&model);
+        let finger_links: Vec<usize> = model
+            .joints()
+            .iter()
+            .filter(|j| {
+                gripper_joint.is_some_and(|g| j.index == g || j.mimic.is_some_and(|m| m.master == g))
+            })
+            .map(|j| j.child_link_index)
+            .collect();
+        let proximal = proximal_links(&model);
+
+        let mut link_bodies = vec![None; model.links().len()];
+        let mut link_friction = vec![0.0; model.links().len()];
+        let mut robot_colliders = Vec::new();
+        for (handle, &link) in handles.links.iter().zip(&link_sources) {
+            link_bodies[link] = Some(handle.body);
+            let friction = if finger_links.contains(&link) {
+                config.finger_friction
+            } else {
+                config.robot_friction
+            };
+            link_friction[link] = friction;
+            let groups = if proximal.contains(&link) {
+                InteractionGroups::new(PROXIMAL_GROUP, CUBE_GROUP, Default::default())
+            } else {
+                InteractionGroups::new(ARM_GROUP, CUBE_GROUP | STATIC_GROUP, Default::default())
+            };
+            for c in &handle.colliders {
+                if let Some(collider) = world.colliders.get_mut(c.handle) {
+                    collider.set_friction(friction as f32);
+                    collider.set_collision_groups(groups);
+                }
+                robot_colliders.push((c.handle, link));
+            }
+        }
+
+        let mut joint_slots = vec![None; model.joints().len()];
+        let mut multibody = None;
+        for (handle, &joint) in handles.joints.iter().zip(&joint_sources) {
+            if handle.joint.is_none() {
+                continue;
+            }
+            let Some(link_id) = world.multibody_joints.rigid_body_link(handle.link2).copied()
+            else {
+                continue;
+            };
+            multibody = Some(link_id.multibody);
+            let info = &model.joints()[joint];
+            let (coord, axis) = match info.joint_type {
+                JointType::Prismatic => (0, JointAxis::LinX),
+                JointType::Revolute | JointType::Continuous => (3, JointAxis::AngX),
+                JointType::Fixed => continue,
+            };
+            joint_slots[joint] = Some(DofSlot {
+                link_id: link_id.id,
+                coord,
+                axis,
+                child_body: handle.link2,
+                parent_body: handle.link1,
+            });
+        }
+        for j in model.joints() {
+            if j.joint_type.is_movable() && joint_slots[j.index].is_none() {
+                return Err(Error::MalformedUrdf {
+                    source_name: model.source().to_owned(),
+                    reason: format!("joint `{}` could not be built as a multibody joint", j.name),
+                });
+            }
+        }
+        let multibody = multibody.ok_or_else(|| Error::MalformedUrdf {
+            source_name: model.source().to_owned(),
+            reason: "the robot has no movable joints".into(),
+        })?;
+
+        // Mimic joints (the second finger) follow their master through a holonomic coupling,
+        // like the real gripper's single drive, instead of two independently saturated motors
+        // that let a held cube drift sideways.
+        if let Some(mb) = world.multibody_joints.get_multibody_mut(multibody) {
+            for j in model.joints() {
+                if let (Some(m), Some(slave)) = (j.mimic, joint_slots[j.index]) {
+                    if let Some(master) = joint_slots[m.master] {
+                        mb.add_dof_coupling(MultibodyDofCoupling {
+                            link1: master.link_id,
+                            dof1: 0,
+                            axis1: master.coord,
+                            link2: slave.link_id,
+                            dof2: 0,
+                            axis2: slave.coord,
+                            coeff: m.multiplier as f32,
+                            offset: m.offset as f32,
+                        });
+                    }
+                }
+            }
+        }
+
+        let controls = vec![JointControl::position(0.0); model.num_dofs()];
+        let mut sim = Self {
+            config,
+            model,
+            base,
+            world,
+            multibody,
+            link_bodies,
+            link_friction,
+            joint_slots,
+            controls,
+            gripper_joint,
+            robot_colliders,
+            cube,
+            cube_collider,
+            floor_collider,
+            platform_collider,
+            time: 0.0,
+            steps: 0,
+        };
+        let q0 = match &sim.config.initial_configuration {
+            Some(q) => q.clone(),
+            None if sim.model.num_dofs() == PANDA_READY.len()
+                && sim.model.joint_index("panda_joint1").is_ok() =>
+            {
+                PANDA_READY.to_vec()
+            }
+            None => vec![0.0; sim.model.num_dofs()],
+        };
+        sim.set_joint_positions(&q0)?;
+        Ok(sim)
+    }
+
+    /// The configuration this world was built from.
+    pub fn config(&self) -> &SimConfig {
+        &self.config
+    }
+
+    /// The robot description (introspection, forward and inverse kinematics).
+    pub fn model(&self) -> &RobotModel {
+        &self.model
+    }
+
+    /// Pose of the robot's root link in the world.
+    pub fn base_pose(&self) -> &Isometry3<f64> {
+        &self.base
+    }
+
+    /// Simulated time since construction (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Physics steps taken since construction.
+    pub fn physics_steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// The control period: `dt * substeps` (s).
+    pub fn control_period(&self) -> f64 {
+        self.config.solver.dt * self.config.solver.substeps as f64
+    }
+
+    fn dof_joint(&self, dof: usize) -> usize {
+        self.model.actuated_joints()[dof]
+    }
+
+    fn slot(&self, joint: usize) -> Option<DofSlot> {
+        self.joint_slots.get(joint).copied().flatten()
+    }
+
+    fn read_joint(&self, joint: usize) -> JointState {
+        let Some(slot) = self.slot(joint) else {
+            return JointState {
+                position: 0.0,
+                velocity: 0.0,
+            };
+        };
+        let Some(mb) = self.world.multibody_joints.get_multibody(self.multibody) else {
+            return JointState {
+                position: f64::NAN,
+                velocity: f64::NAN,
+            };
+        };
+        match mb.link(slot.link_id) {
+            Some(link) => JointState {
+                position: link.joint().coords()[slot.coord] as f64,
+                velocity: mb.joint_velocity(link)[0] as f64,
+            },
+            None => JointState {
+                position: f64::NAN,
+                velocity: f64::NAN,
+            },
+        }
+    }
+
+    /// Position and velocity of joint `index` (any joint; fixed joints read 0).
+    pub fn joint_state(&self, index: usize) -> Result<JointState> {
+        self.model.joint(index)?;
+        Ok(self.read_joint(index))
+    }
+
+    /// Positions of the actuated joints: the configuration `q`.
+    pub fn joint_positions(&self) -> Vec<f64> {
+        (0..self.model.num_dofs())
+            .map(|d| self.read_joint(self.dof_joint(d)).position)
+            .collect()
+    }
+
+    /// Velocities of the actuated joints.
+    pub fn joint_velocities(&self) -> Vec<f64> {
+        (0..self.model.num_dofs())
+            .map(|d| self.read_joint(self.dof_joint(d)).velocity)
+            .collect()
+    }
+
+    /// Teleports the robot to configuration `q` (one value per actuated joint, clamped into
+    /// the joint limits) at rest, and makes position control hold it. For resets.
+    pub fn set_joint_positions(&mut self, q: &[f64]) -> Result<()> {
+        self.model.validate_configuration(q)?;
+        let mut q = q.to_vec();
+        self.model.clamp_configuration(&mut q);
+        let mut positions = vec![0.0; self.model.joints().len()];
+        self.model.expand_positions(&q, &mut positions);
+
+        let Some(mb) = self.world.multibody_joints.get_multibody_mut(self.multibody) else {
+            return Ok(());
+        };
+        let mut displacement = vec![0.0f32; mb.ndofs()];
+        for (joint, slot) in self.joint_slots.iter().enumerate() {
+            let Some(slot) = slot else { continue };
+            if let Some(link) = mb.link(slot.link_id) {
+                let current = link.joint().coords()[slot.coord];
+                displacement[link.assembly_id()] = positions[joint] as f32 - current;
+            }
+        }
+        mb.apply_displacements(&displacement);
+        mb.generalized_velocity_mut().fill(0.0);
+        mb.forward_kinematics(&self.world.bodies, false);
+        mb.update_rigid_bodies(&mut self.world.bodies, true);
+        for body in self.link_bodies.iter().flatten() {
+            if let Some(rb) = self.world.bodies.get_mut(*body) {
+                rb.set_linvel(Vector::ZERO, true);
+                rb.set_angvel(Vector::ZERO, true);
+            }
+        }
+        for (dof, &target) in q.iter().enumerate() {
+            self.controls[dof] = JointControl::position(target);
+        }
+        self.apply_motor_settings();
+        Ok(())
+    }
+
+    fn actuated_dof(&self, joint: usize) -> Result<usize> {
+        let info = self.model.joint(joint)?;
+        match (info.dof, info.mimic) {
+            (Some(d), _) => Ok(d),
+            (None, Some(m)) => Err(Error::JointNotCommandable {
+                name: info.name.clone(),
+                reason: format!(
+                    "it mimics `{}`; command that joint instead",
+                    self.model.joints()[m.master].name
+                ),
+            }),
+            (None, None) => Err(Error::JointNotCommandable {
+                name: info.name.clone(),
+                reason: "it is a fixed joint".into(),
+            }),
+        }
+    }
+
+    /// Sets how joint `index` (an index into [`RobotModel::joints`]) is driven from now on.
+    pub fn set_joint_control(&mut self, index: usize, control: JointControl) -> Result<()> {
+        let dof = self.actuated_dof(index)?;
+        control.validate(&self.model.joints()[index].name)?;
+        self.controls[dof] = control;
+        self.apply_motor_settings();
+        Ok(())
+    }
+
+    /// [`Simulation::set_joint_control`] by joint name.
+    pub fn set_joint_control_by_name(&mut self, name: &str, control: JointControl) -> Result<()> {
+        let index = self.model.joint_index(name)?;
+        self.set_joint_control(index, control)
+    }
+
+    /// Sets the control of every actuated joint at once (one entry per entry of `q`).
+    pub fn set_joint_controls(&mut self, controls: &[JointControl]) -> Result<()> {
+        ensure_len("joint controls", self.model.num_dofs(), controls.len())?;
+        for (dof, c) in controls.iter().enumerate() {
+            c.validate(&self.model.joints()[self.dof_joint(dof)].name)?;
+        }
+        self.controls.copy_from_slice(controls);
+        self.apply_motor_settings();
+        Ok(())
+    }
+
+    /// Position control of every actuated joint to `targets` at the effort limits.
+    pub fn set_position_targets(&mut self, targets: &[f64]) -> Result<()> {
+        ensure_len("position targets", self.model.num_dofs(), targets.len())?;
+        ensure_all_finite("position targets", targets)?;
+        for (control, &t) in self.controls.iter_mut().zip(targets) {
+            *control = JointControl::position(t);
+        }
+        self.apply_motor_settings();
+        Ok(())
+    }
+
+    /// The current command of every actuated joint.
+    pub fn joint_controls(&self) -> &[JointControl] {
+        &self.controls
+    }
+
+    /// Drives the gripper to an opening of `width` metres (between the finger pads, clamped to
+    /// the fingers' range) squeezing with at most `force` newtons per finger (`None`: the
+    /// configured gripper force). Closing on an object holds it by friction alone.
+    pub fn set_gripper(&mut self, width: f64, force: Option<f64>) -> Result<()> {
+        let joint = self.gripper_joint.ok_or_else(|| Error::JointNotCommandable {
+            name: "gripper".into(),
+            reason: "this robot has no prismatic finger joint".into(),
+        })?;
+        ensure_finite(|| "gripper width".into(), width)?;
+        let force = force.unwrap_or(self.config.motors.gripper_force);
+        let target = width / self.gripper_width_gain(joint);
+        self.set_joint_control(
+            joint,
+            JointControl::Position {
+                target,
+                target_velocity: 0.0,
+                max_force: Some(force),
+            },
+        )
+    }
+
+    /// Opening per unit of the gripper joint: 1 plus the multipliers of the joints mimicking it.
+    fn gripper_width_gain(&self, joint: usize) -> f64 {
+        1.0 + self
+            .model
+            .joints()
+            .iter()
+            .filter_map(|j| j.mimic.filter(|m| m.master == joint))
+            .map(|m| m.multiplier)
+            .sum::<f64>()
+    }
+
+    /// Opening between the finger pads (m); 0 for robots without a gripper.
+    pub fn gripper_width(&self) -> f64 {
+        let Some(g) = self.gripper_joint else {
+            return 0.0;
+        };
+        self.read_joint(g).position
+            + self
+                .model
+                .joints()
+                .iter()
+                .filter(|j| j.mimic.is_some_and(|m| m.master == g))
+                .map(|j| self.read_joint(j.index).position)
+                .sum::<f64>()
+    }
+
+    /// Pushes the current controls into the rapier joint motors.
+    fn apply_motor_settings(&mut self) {
+        let motors = &self.config.motors;
+        let Some(mb) = self.world.multibody_joints.get_multibody_mut(self.multibody) else {
+            return;
+        };
+        for (dof, control) in self.controls.iter().enumerate() {
+            let joint = &self.model.joints()[self.model.actuated_joints()[dof]];
+            let Some(slot) = self.joint_slots[joint.index] else {
+                continue;
+            };
+            let Some(link) = mb.link_mut(slot.link_id) else {
+                continue;
+            };
+            let effort = joint.max_force;
+            let data = &mut link.joint.data;
+            match *control {
+                JointControl::Position {
+                    target,
+                    target_velocity,
+                    max_force,
+                } => {
+                    data.set_motor(
+                        slot.axis,
+                        joint.clamp(target) as f32,
+                        target_velocity as f32,
+                        motors.stiffness as f32,
+                        motors.damping as f32,
+                    );
+                    data.set_motor_max_force(slot.axis, max_force.unwrap_or(effort) as f32);
+                }
+                JointControl::Velocity { target, max_force } => {
+                    data.set_motor(
+                        slot.axis,
+                        0.0,
+                        target as f32,
+                        0.0,
+                        motors.velocity_damping as f32,
+                    );
+                    data.set_motor_max_force(slot.axis, max_force.unwrap_or(effort) as f32);
+                }
+                JointControl::Torque(_) => {
+                    data.set_motor(slot.axis, 0.0, 0.0, 0.0, 0.0);
+                    data.set_motor_max_force(slot.axis, 0.0);
+                }
+            }
+        }
+    }
+
+    /// Joint torques of torque-controlled joints become equal and opposite body torques
+    /// (forces for prismatic joints) on the joint's child and parent links.
+    fn apply_joint_torques(&mut self) {
+        for body in self.link_bodies.iter().flatten() {
+            if let Some(rb) = self.world.bodies.get_mut(*body) {
+                rb.reset_forces(false);
+            }
+        }
+        for (dof, control) in self.controls.iter().enumerate() {
+            let JointControl::Torque(torque) = *control else {
+                continue;
+            };
+            let joint = &self.model.joints()[self.model.actuated_joints()[dof]];
+            let Some(slot) = self.joint_slots[joint.index] else {
+                continue;
+            };
+            let torque = torque.clamp(-joint.max_force.abs(), joint.max_force.abs());
+            let Some(child) = self.world.bodies.get(slot.child_body) else {
+                continue;
+            };
+            // Joint motion leaves the axis fixed in the child's frame, so the child link carries
+            // it into world coordinates.
+            let axis = child.rotation() * vec_from_na(&(joint.axis * torque));
+            let prismatic = joint.joint_type == JointType::Prismatic;
+            for (body, sign) in [(slot.child_body, 1.0f32), (slot.parent_body, -1.0)] {
+                if let Some(rb) = self.world.bodies.get_mut(body) {
+                    if prismatic {
+                        rb.add_force(axis * sign, true);
+                    } else {
+                        rb.add_torque(axis * sign, true);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Advances the world by one physics step (`solver.dt`).
+    pub fn step(&mut self) {
+        self.apply_joint_torques();
+        self.world.step();
+        self.time += self.config.solver.dt;
+        self.steps += 1;
+    }
+
+    /// Advances the world by one control period (`solver.substeps` physics steps).
+    pub fn step_control(&mut self) {
+        for _ in 0..self.config.solver.substeps {
+            self.step();
+        }
+    }
+
+    fn body_state(&self, handle: RigidBodyHandle) -> BodyState {
+        match self.world.bodies.get(handle) {
+            Some(rb) => BodyState {
+                position: vec_to_na(rb.translation()),
+                orientation: convert::rot_to_na(*rb.rotation()),
+                linear_velocity: vec_to_na(rb.velocity_at_point(rb.translation())),
+                angular_velocity: vec_to_na(rb.angvel()),
+            },
+            None => BodyState {
+                position: Vector3::repeat(f64::NAN),
+                orientation: UnitQuaternion::identity(),
+                linear_velocity: Vector3::repeat(f64::NAN),
+                angular_velocity: Vector3::repeat(f64::NAN),
+            },
+        }
+    }
+
+    /// Pose and velocity of link `index`. Frame-only links without a body of their own (such as
+    /// the flange) are placed by the fixed transforms to their nearest ancestor with a body.
+    fn link_body_state(&self, index: usize) -> BodyState {
+        let mut offset = Isometry3::identity();
+        let mut link = index;
+        loop {
+            if let Some(handle) = self.link_bodies[link] {
+                let body = self.body_state(handle);
+                let pose = Isometry3::from_parts(Translation3::from(body.position), body.orientation);
+                let frame = pose * offset;
+                let lever = frame.translation.vector - body.position;
+                return BodyState {
+                    position: frame.translation.vector,
+                    orientation: frame.rotation,
+                    linear_velocity: body.linear_velocity + body.angular_velocity.cross(&lever),
+                    angular_velocity: body.angular_velocity,
+                };
+            }
+            let Some(j) = self.model.links()[link].parent_joint else {
+                // A root without a body: it is where the base was put.
+                return BodyState {
+                    position: (self.base * offset).translation.vector,
+                    orientation: (self.base * offset).rotation,
+                    linear_velocity: Vector3::zeros(),
+                    angular_velocity: Vector3::zeros(),
+                };
+            };
+            let position = self.read_joint(j).position;
+            offset = self.model.joint_transform(j, position) * offset;
+            link = self.model.joints()[j].parent_link_index;
+        }
+    }
+
+    /// State of the link named `name`: pose, velocity, mass and friction.
+    pub fn link_state(&self, name: &str) -> Result<LinkState> {
+        let index = self.model.link_index(name)?;
+        Ok(self.link_state_at(index))
+    }
+
+    fn link_state_at(&self, index: usize) -> LinkState {
+        let info = &self.model.links()[index];
+        LinkState {
+            index,
+            name: info.name.clone(),
+            mass: info.mass,
+            friction: self.link_friction[index],
+            state: self.link_body_state(index),
+        }
+    }
+
+    /// States of all links, in [`RobotModel::links`] order.
+    pub fn link_states(&self) -> Vec<LinkState> {
+        (0..self.model.links().len())
+            .map(|i| self.link_state_at(i))
+            .collect()
+    }
+
+    /// Pose and velocity of the tool centre point.
+    pub fn tcp_state(&self) -> BodyState {
+        let tcp = self.model.tcp();
+        let link = self.link_body_state(tcp.link);
+        let pose = Isometry3::from_parts(Translation3::from(link.position), link.orientation)
+            * tcp.offset;
+        let lever = pose.translation.vector - link.position;
+        BodyState {
+            position: pose.translation.vector,
+            orientation: pose.rotation,
+            linear_velocity: link.linear_velocity + link.angular_velocity.cross(&lever),
+            angular_velocity: link.angular_velocity,
+        }
+    }
+
+    /// Pose and velocity of the cube's centre.
+    pub fn cube_state(&self) -> BodyState {
+        self.body_state(self.cube)
+    }
+
+    /// Teleports the cube to `position` / `orientation`, at rest.
+    pub fn set_cube_pose(
+        &mut self,
+        position: &Vector3<f64>,
+        orientation: &UnitQuaternion<f64>,
+    ) -> Result<()> {
+        ensure_all_finite("cube position", position.as_slice())?;
+        ensure_all_finite("cube orientation", orientation.coords.as_slice())?;
+        if let Some(rb) = self.world.bodies.get_mut(self.cube) {
+            let pose = Isometry3::from_parts(Translation3::from(*position), *orientation);
+            rb.set_position(pose_from_na(&pose), true);
+            rb.set_linvel(Vector::ZERO, true);
+            rb.set_angvel(Vector::ZERO, true);
+            rb.reset_forces(true);
+        }
+        Ok(())
+    }
+
+    /// What the cube touches right now (contacts with a positive impulse in the last step).
+    pub fn cube_contacts(&self) -> CubeContacts {
+        let mut contacts = CubeContacts::default();
+        for pair in self
+            .world
+            .narrow_phase
+            .contact_pairs_with(self.cube_collider)
+        {
+            if !pair.has_any_active_contact() {
+                continue;
+            }
+            let other = if pair.collider1 == self.cube_collider {
+                pair.collider2
+            } else {
+                pair.collider1
+            };
+            if other == self.floor_collider {
+                contacts.floor = true;
+            } else if other == self.platform_collider {
+                contacts.platform = true;
+            } else if let Some(&(_, link)) = self.robot_colliders.iter().find(|(c, _)| *c == other)
+            {
+                if !contacts.robot_links.contains(&link) {
+                    contacts.robot_links.push(link);
+                }
+            }
+        }
+        contacts.robot_links.sort_unstable();
+        contacts
+    }
+
+    /// Joints or constraints of any kind that attach the cube to another body. The grasp is
+    /// frictional, so this is 0.
+    pub fn constraints_on_cube(&self) -> usize {
+        self.world
+            .impulse_joints
+            .attached_joints(self.cube)
+            .count()
+            + self.world.multibody_joints.attached_joints(self.cube).count()
+    }
+
+    /// Whether every body's pose and velocity is finite.
+    pub fn is_finite(&self) -> bool {
+        self.world.bodies.iter().all(|(_, rb)| {
+            let t = rb.translation();
+            let v = rb.linvel();
+            let w = rb.angvel();
+            t.is_finite() && v.is_finite() && w.is_finite() && rb.rotation().is_finite()
+        })
+    }
+}
+
+/// The actuated prismatic joint that drives the fingers: `panda_finger_joint1` for the Panda,
+/// else the first actuated prismatic joint that another joint mimics, else none.
+fn find_gripper_joint(model: &RobotModel) -> Option<usize> {
+    if let Ok(j) = model.joint_index("panda_finger_joint1") {
+        return Some(j);
+    }
+    model
+        .joints()
+        .iter()
+        .filter(|j| j.joint_type == JointType::Prismatic && j.dof.is_some())
+        .find(|j| {
+            model
+                .joints()
+                .iter()
+                .any(|o| o.mimic.is_some_and(|m| m.master == j.index))
+        })
+        .map(|j| j.index)
+}
+
+/// Links with at most one movable joint between them and the root: they only turn about the
+/// base's vertical axis and cannot reach the floor or the platform.
+fn proximal_links(model: &RobotModel) -> Vec<usize> {
+    model
+        .links()
+        .iter()
+        .filter(|link| {
+            let mut movable = 0;
+            let mut current = link.index;
+            while let Some(j) = model.links()[current].parent_joint {
+                if model.joints()[j].joint_type.is_movable() {
+                    movable += 1;
+                }
+                current = model.joints()[j].parent_link_index;
+            }
+            movable <= 1
+        })
+        .map(|l| l.index)
+        .collect()
+}

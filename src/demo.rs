@@ -1,0 +1,235 @@
+//! The classic tutorial's manual pick-and-place sequence, done with the core API: open the hand,
+//! move 25 cm above the cube with the hand pointing down, descend, close, lift, carry over the
+//! platform, lower, open, retreat. The TCP moves along straight lines at a bounded speed, each
+//! control step solving inverse kinematics for the next waypoint (warm-started from the last
+//! solution) and commanding the arm joints with position control.
+//!
+//! It is open loop in the sense of the tutorial: it plans from the cube's initial pose and never
+//! re-plans, so it is a test of the physics (does the friction grasp hold?), not a policy.
+
+use panda_rapier_core::nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use panda_rapier_core::{IkOptions, JointControl, Result, Simulation};
+
+/// Parameters of the sequence.
+#[derive(Debug, Clone)]
+pub struct TutorialSequence {
+    /// Where the cube's centre should end up (on top of the platform).
+    pub place_at: Vector3<f64>,
+    /// Height above the cube for the approach (m).
+    pub approach_height: f64,
+    /// How high the cube is lifted above its start (m).
+    pub lift_height: f64,
+    /// TCP speed along each straight segment (m/s).
+    pub speed: f64,
+    /// Gripper opening when open (m).
+    pub open_width: f64,
+    /// Squeeze force per finger when closed (N).
+    pub grip_force: f64,
+}
+
+impl TutorialSequence {
+    /// The sequence for a simulation's default scene: place the cube at the centre of the
+    /// platform's top.
+    pub fn for_scene(sim: &Simulation) -> Self {
+        let p = &sim.config().platform;
+        let half = sim.config().cube.size / 2.0;
+        Self {
+            place_at: Vector3::new(p.top_center[0], p.top_center[1], p.top_center[2] + half),
+            approach_height: 0.25,
+            lift_height: 0.25,
+            speed: 0.3,
+            open_width: 0.08,
+            grip_force: sim.config().motors.gripper_force,
+        }
+    }
+}
+
+/// What happened, measured while the sequence ran.
+#[derive(Debug, Clone, Default)]
+pub struct SequenceReport {
+    /// Names and end times (s) of the phases, in order.
+    pub phases: Vec<(&'static str, f64)>,
+    /// Highest rise of the cube's centre above its start (m).
+    pub lift: f64,
+    /// Horizontal distance the cube travelled while carried (m).
+    pub carry_distance: f64,
+    /// Largest displacement of the cube in the hand's frame during lift, carry and lowering,
+    /// relative to where it sat when the lift began (m).
+    pub max_slip: f64,
+    /// Largest rotation of the cube relative to the hand over the same span (rad).
+    pub max_slip_angle: f64,
+    /// Largest displacement of the cube in the hand's frame during the carry, relative to where
+    /// it sat when the carry began (m).
+    pub carry_slip: f64,
+    /// Largest rotation of the cube relative to the hand during the carry (rad).
+    pub carry_slip_angle: f64,
+    /// Peak TCP speed while carrying (m/s).
+    pub peak_carry_speed: f64,
+    /// The cube's final centre.
+    pub final_position: Vector3<f64>,
+    /// Horizontal distance between the final centre and the intended spot (m).
+    pub placement_error: f64,
+    /// The cube's final speed (m/s).
+    pub final_speed: f64,
+    /// Whether the cube finally rests on the platform (contact with it, none with the robot).
+    pub on_platform: bool,
+    /// Gripper opening once closed on the cube (m).
+    pub grip_width: f64,
+    /// Joints or constraints attached to the cube at any time (must stay 0).
+    pub max_constraints_on_cube: usize,
+    /// Whether any state read during the run was not finite.
+    pub non_finite_seen: bool,
+    /// Largest IK residual along the way (m).
+    pub max_ik_error: f64,
+    /// Largest gap between the commanded and the reached TCP position at a waypoint (m).
+    pub max_tracking_error: f64,
+}
+
+enum Phase {
+    Gripper { width: f64, force: f64, hold: f64 },
+    Move { to: Vector3<f64>, settle: f64 },
+}
+
+/// The hand pointing down: the TCP's z axis along world -z.
+pub fn hand_down() -> UnitQuaternion<f64> {
+    UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0)
+}
+
+/// Runs the sequence on `sim` from its current state.
+pub fn run(sim: &mut Simulation, plan: &TutorialSequence) -> Result<SequenceReport> {
+    let cube_start = sim.cube_state().position;
+    let above = cube_start + Vector3::new(0.0, 0.0, plan.approach_height);
+    let lifted = cube_start + Vector3::new(0.0, 0.0, plan.lift_height);
+    let carried = Vector3::new(plan.place_at.x, plan.place_at.y, lifted.z);
+    let placed = plan.place_at + Vector3::new(0.0, 0.0, 0.002);
+    let retreat = plan.place_at + Vector3::new(0.0, 0.0, 0.2);
+    let phases: [(&'static str, Phase); 9] = [
+        ("open", Phase::Gripper { width: plan.open_width, force: plan.grip_force, hold: 0.3 }),
+        ("move_above", Phase::Move { to: above, settle: 0.2 }),
+        ("descend", Phase::Move { to: cube_start, settle: 0.2 }),
+        ("close", Phase::Gripper { width: 0.0, force: plan.grip_force, hold: 0.5 }),
+        ("lift", Phase::Move { to: lifted, settle: 0.2 }),
+        ("carry", Phase::Move { to: carried, settle: 0.2 }),
+        ("lower", Phase::Move { to: placed, settle: 0.3 }),
+        ("release", Phase::Gripper { width: plan.open_width, force: plan.grip_force, hold: 0.5 }),
+        ("retreat", Phase::Move { to: retreat, settle: 0.5 }),
+    ];
+
+    let mut report = SequenceReport::default();
+    let mut q_command = sim.joint_positions();
+    let orientation = hand_down();
+    let period = sim.control_period();
+    let mut grasp_reference: Option<Isometry3<f64>> = None;
+    let mut carry_start = None;
+    let mut carry_reference: Option<Isometry3<f64>> = None;
+
+    for (name, phase) in phases {
+        let mut observe = |sim: &Simulation, report: &mut SequenceReport| {
+            let cube = sim.cube_state();
+            let tcp = sim.tcp_state();
+            let finite = cube.position.iter().all(|v| v.is_finite())
+                && cube.linear_velocity.iter().all(|v| v.is_finite())
+                && tcp.position.iter().all(|v| v.is_finite());
+            report.non_finite_seen |= !finite || !sim.is_finite();
+            report.max_constraints_on_cube = report.max_constraints_on_cube.max(sim.constraints_on_cube());
+            report.lift = report.lift.max(cube.position.z - cube_start.z);
+            if matches!(name, "lift" | "carry" | "lower") {
+                let tcp_pose = Isometry3::from_parts(Translation3::from(tcp.position), tcp.orientation);
+                let cube_pose = Isometry3::from_parts(Translation3::from(cube.position), cube.orientation);
+                let in_hand = tcp_pose.inverse() * cube_pose;
+                let reference = *grasp_reference.get_or_insert(in_hand);
+                report.max_slip = report
+                    .max_slip
+                    .max((in_hand.translation.vector - reference.translation.vector).norm());
+                report.max_slip_angle = report
+                    .max_slip_angle
+                    .max(in_hand.rotation.angle_to(&reference.rotation));
+            }
+            if name == "carry" {
+                let tcp_pose = Isometry3::from_parts(Translation3::from(tcp.position), tcp.orientation);
+                let cube_pose = Isometry3::from_parts(Translation3::from(cube.position), cube.orientation);
+                let in_hand = tcp_pose.inverse() * cube_pose;
+                let reference = *carry_reference.get_or_insert(in_hand);
+                report.carry_slip = report
+                    .carry_slip
+                    .max((in_hand.translation.vector - reference.translation.vector).norm());
+                report.carry_slip_angle = report
+                    .carry_slip_angle
+                    .max(in_hand.rotation.angle_to(&reference.rotation));
+                let start = *carry_start.get_or_insert(cube.position);
+                let d = cube.position - start;
+                report.carry_distance = report.carry_distance.max((d.x * d.x + d.y * d.y).sqrt());
+                report.peak_carry_speed = report.peak_carry_speed.max(tcp.linear_velocity.norm());
+            }
+        };
+        match phase {
+            Phase::Gripper { width, force, hold } => {
+                sim.set_gripper(width, Some(force))?;
+                for _ in 0..steps_for(hold, period) {
+                    sim.step_control();
+                    observe(sim, &mut report);
+                }
+                if name == "close" {
+                    report.grip_width = sim.gripper_width();
+                }
+            }
+            Phase::Move { to, settle } => {
+                let from = sim.tcp_state().position;
+                let n = steps_for((to - from).norm() / plan.speed, period).max(1);
+                for k in 1..=n {
+                    let waypoint = from + (to - from) * (k as f64 / n as f64);
+                    let solution = sim.model().inverse_kinematics(
+                        &waypoint,
+                        Some(&orientation),
+                        &q_command,
+                        sim.base_pose(),
+                        &IkOptions::default(),
+                    )?;
+                    report.max_ik_error = report.max_ik_error.max(solution.position_error);
+                    q_command = solution.q;
+                    command_arm(sim, &q_command)?;
+                    sim.step_control();
+                    observe(sim, &mut report);
+                }
+                for _ in 0..steps_for(settle, period) {
+                    sim.step_control();
+                    observe(sim, &mut report);
+                }
+                report.max_tracking_error = report
+                    .max_tracking_error
+                    .max((sim.tcp_state().position - to).norm());
+            }
+        }
+        report.phases.push((name, sim.time()));
+    }
+
+    let cube = sim.cube_state();
+    report.final_position = cube.position;
+    let d = cube.position - plan.place_at;
+    report.placement_error = (d.x * d.x + d.y * d.y).sqrt();
+    report.final_speed = cube.linear_velocity.norm();
+    let contacts = sim.cube_contacts();
+    report.on_platform = contacts.platform && contacts.robot_links.is_empty();
+    Ok(report)
+}
+
+fn steps_for(seconds: f64, period: f64) -> usize {
+    (seconds / period).ceil() as usize
+}
+
+/// Position control of the arm joints (all actuated joints but the gripper's).
+fn command_arm(sim: &mut Simulation, q: &[f64]) -> Result<()> {
+    let gripper = sim.model().joint_index("panda_finger_joint1").ok();
+    let arm: Vec<usize> = sim
+        .model()
+        .actuated_joints()
+        .iter()
+        .copied()
+        .filter(|&j| Some(j) != gripper)
+        .collect();
+    for j in arm {
+        let dof = sim.model().joints()[j].dof.unwrap_or(0);
+        sim.set_joint_control(j, JointControl::position(q[dof]))?;
+    }
+    Ok(())
+}

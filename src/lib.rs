@@ -1,0 +1,8 @@
+//! panda_rapier: Franka Panda pick-and-place on rapier3d.
+//!
+//! This facade re-exports [`panda_rapier_core`]; the top-level `tests/`, `benches/` and
+//! `examples/` use the API through it exactly as users do.
+
+pub use panda_rapier_core::*;
+
+pub mod demo;
