@@ -7,11 +7,21 @@ use panda_rapier::{SimConfig, Simulation};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut config = SimConfig::default();
-    if let Ok(v) = std::env::var("DT") { config.solver.dt = v.parse()?; }
-    if let Ok(v) = std::env::var("SUB") { config.solver.substeps = v.parse()?; }
-    if let Ok(v) = std::env::var("IT") { config.solver.solver_iterations = v.parse()?; }
-    if let Ok(v) = std::env::var("LU") { config.solver.length_unit = v.parse()?; }
-    if let Ok(v) = std::env::var("NF") { config.solver.contact_natural_frequency = v.parse()?; }
+    if let Ok(v) = std::env::var("DT") {
+        config.solver.dt = v.parse()?;
+    }
+    if let Ok(v) = std::env::var("SUB") {
+        config.solver.substeps = v.parse()?;
+    }
+    if let Ok(v) = std::env::var("IT") {
+        config.solver.solver_iterations = v.parse()?;
+    }
+    if let Ok(v) = std::env::var("LU") {
+        config.solver.length_unit = v.parse()?;
+    }
+    if let Ok(v) = std::env::var("NF") {
+        config.solver.contact_natural_frequency = v.parse()?;
+    }
     let mut sim = Simulation::new(config)?;
     let plan = TutorialSequence::for_scene(&sim);
     let start = sim.cube_state().position;
@@ -34,17 +44,34 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let p = report.final_position;
     println!("lifted            {:.3} m", report.lift);
-    println!("carried           {:.3} m (peak TCP speed {:.2} m/s)", report.carry_distance, report.peak_carry_speed);
-    println!("grip width        {:.4} m (cube {:.3} m)", report.grip_width, sim.config().cube.size);
+    println!(
+        "carried           {:.3} m (peak TCP speed {:.2} m/s)",
+        report.carry_distance, report.peak_carry_speed
+    );
+    println!(
+        "grip width        {:.4} m (cube {:.3} m)",
+        report.grip_width,
+        sim.config().cube.size
+    );
     println!("slip in the hand  {:.2} mm, {:.2} deg from lift to placing; {:.2} mm, {:.2} deg during the carry",
         report.max_slip * 1e3, report.max_slip_angle.to_degrees(), report.carry_slip * 1e3, report.carry_slip_angle.to_degrees());
     println!("final cube centre ({:.4}, {:.4}, {:.4}), {:.1} mm from the target, speed {:.4} m/s, on the platform: {}",
         p.x, p.y, p.z, report.placement_error * 1e3, report.final_speed, report.on_platform);
-    println!("constraints between hand and cube: {}; non-finite state seen: {}", report.max_constraints_on_cube, report.non_finite_seen);
-    println!("largest IK residual {:.1e} m, largest TCP tracking gap {:.1} mm", report.max_ik_error, report.max_tracking_error * 1e3);
+    println!(
+        "constraints between hand and cube: {}; non-finite state seen: {}",
+        report.max_constraints_on_cube, report.non_finite_seen
+    );
+    println!(
+        "largest IK residual {:.1e} m, largest TCP tracking gap {:.1} mm",
+        report.max_ik_error,
+        report.max_tracking_error * 1e3
+    );
     println!(
         "simulated {:.2} s in {:.3} s wall clock ({:.0}x real time, {} physics steps)",
-        sim.time(), elapsed, sim.time() / elapsed, sim.physics_steps()
+        sim.time(),
+        elapsed,
+        sim.time() / elapsed,
+        sim.physics_steps()
     );
     Ok(())
 }

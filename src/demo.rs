@@ -104,15 +104,72 @@ pub fn run(sim: &mut Simulation, plan: &TutorialSequence) -> Result<SequenceRepo
     let placed = plan.place_at + Vector3::new(0.0, 0.0, 0.002);
     let retreat = plan.place_at + Vector3::new(0.0, 0.0, 0.2);
     let phases: [(&'static str, Phase); 9] = [
-        ("open", Phase::Gripper { width: plan.open_width, force: plan.grip_force, hold: 0.3 }),
-        ("move_above", Phase::Move { to: above, settle: 0.2 }),
-        ("descend", Phase::Move { to: cube_start, settle: 0.2 }),
-        ("close", Phase::Gripper { width: 0.0, force: plan.grip_force, hold: 0.5 }),
-        ("lift", Phase::Move { to: lifted, settle: 0.2 }),
-        ("carry", Phase::Move { to: carried, settle: 0.2 }),
-        ("lower", Phase::Move { to: placed, settle: 0.3 }),
-        ("release", Phase::Gripper { width: plan.open_width, force: plan.grip_force, hold: 0.5 }),
-        ("retreat", Phase::Move { to: retreat, settle: 0.5 }),
+        (
+            "open",
+            Phase::Gripper {
+                width: plan.open_width,
+                force: plan.grip_force,
+                hold: 0.3,
+            },
+        ),
+        (
+            "move_above",
+            Phase::Move {
+                to: above,
+                settle: 0.2,
+            },
+        ),
+        (
+            "descend",
+            Phase::Move {
+                to: cube_start,
+                settle: 0.2,
+            },
+        ),
+        (
+            "close",
+            Phase::Gripper {
+                width: 0.0,
+                force: plan.grip_force,
+                hold: 0.5,
+            },
+        ),
+        (
+            "lift",
+            Phase::Move {
+                to: lifted,
+                settle: 0.2,
+            },
+        ),
+        (
+            "carry",
+            Phase::Move {
+                to: carried,
+                settle: 0.2,
+            },
+        ),
+        (
+            "lower",
+            Phase::Move {
+                to: placed,
+                settle: 0.3,
+            },
+        ),
+        (
+            "release",
+            Phase::Gripper {
+                width: plan.open_width,
+                force: plan.grip_force,
+                hold: 0.5,
+            },
+        ),
+        (
+            "retreat",
+            Phase::Move {
+                to: retreat,
+                settle: 0.5,
+            },
+        ),
     ];
 
     let mut report = SequenceReport::default();
@@ -131,11 +188,15 @@ pub fn run(sim: &mut Simulation, plan: &TutorialSequence) -> Result<SequenceRepo
                 && cube.linear_velocity.iter().all(|v| v.is_finite())
                 && tcp.position.iter().all(|v| v.is_finite());
             report.non_finite_seen |= !finite || !sim.is_finite();
-            report.max_constraints_on_cube = report.max_constraints_on_cube.max(sim.constraints_on_cube());
+            report.max_constraints_on_cube = report
+                .max_constraints_on_cube
+                .max(sim.constraints_on_cube());
             report.lift = report.lift.max(cube.position.z - cube_start.z);
             if matches!(name, "lift" | "carry" | "lower") {
-                let tcp_pose = Isometry3::from_parts(Translation3::from(tcp.position), tcp.orientation);
-                let cube_pose = Isometry3::from_parts(Translation3::from(cube.position), cube.orientation);
+                let tcp_pose =
+                    Isometry3::from_parts(Translation3::from(tcp.position), tcp.orientation);
+                let cube_pose =
+                    Isometry3::from_parts(Translation3::from(cube.position), cube.orientation);
                 let in_hand = tcp_pose.inverse() * cube_pose;
                 let reference = *grasp_reference.get_or_insert(in_hand);
                 report.max_slip = report
@@ -146,8 +207,10 @@ pub fn run(sim: &mut Simulation, plan: &TutorialSequence) -> Result<SequenceRepo
                     .max(in_hand.rotation.angle_to(&reference.rotation));
             }
             if name == "carry" {
-                let tcp_pose = Isometry3::from_parts(Translation3::from(tcp.position), tcp.orientation);
-                let cube_pose = Isometry3::from_parts(Translation3::from(cube.position), cube.orientation);
+                let tcp_pose =
+                    Isometry3::from_parts(Translation3::from(tcp.position), tcp.orientation);
+                let cube_pose =
+                    Isometry3::from_parts(Translation3::from(cube.position), cube.orientation);
                 let in_hand = tcp_pose.inverse() * cube_pose;
                 let reference = *carry_reference.get_or_insert(in_hand);
                 report.carry_slip = report

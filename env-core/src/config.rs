@@ -177,7 +177,10 @@ fn positive(field: &str, value: f64) -> Result<()> {
     if value.is_finite() && value > 0.0 {
         Ok(())
     } else {
-        Err(invalid(field, format!("must be finite and > 0, got {value}")))
+        Err(invalid(
+            field,
+            format!("must be finite and > 0, got {value}"),
+        ))
     }
 }
 
@@ -185,7 +188,10 @@ fn non_negative(field: &str, value: f64) -> Result<()> {
     if value.is_finite() && value >= 0.0 {
         Ok(())
     } else {
-        Err(invalid(field, format!("must be finite and >= 0, got {value}")))
+        Err(invalid(
+            field,
+            format!("must be finite and >= 0, got {value}"),
+        ))
     }
 }
 
@@ -200,7 +206,8 @@ fn finite3(field: &str, v: [f64; 3]) -> Result<()> {
 impl SimConfig {
     /// Parses a JSON document; unknown keys are errors.
     pub fn from_json(text: &str) -> Result<Self> {
-        let config: Self = serde_json::from_str(text).map_err(|e| invalid("<json>", e.to_string()))?;
+        let config: Self =
+            serde_json::from_str(text).map_err(|e| invalid("<json>", e.to_string()))?;
         config.validate()?;
         Ok(config)
     }
@@ -224,10 +231,16 @@ impl SimConfig {
         let s = &self.solver;
         positive("solver.dt", s.dt)?;
         if s.dt > 0.05 {
-            return Err(invalid("solver.dt", format!("must be <= 0.05 s, got {}", s.dt)));
+            return Err(invalid(
+                "solver.dt",
+                format!("must be <= 0.05 s, got {}", s.dt),
+            ));
         }
         if s.substeps == 0 || s.substeps > 10_000 {
-            return Err(invalid("solver.substeps", format!("must be in 1..=10000, got {}", s.substeps)));
+            return Err(invalid(
+                "solver.substeps",
+                format!("must be in 1..=10000, got {}", s.substeps),
+            ));
         }
         if s.solver_iterations == 0 || s.solver_iterations > 100 {
             return Err(invalid(
@@ -235,7 +248,10 @@ impl SimConfig {
                 format!("must be in 1..=100, got {}", s.solver_iterations),
             ));
         }
-        positive("solver.contact_natural_frequency", s.contact_natural_frequency)?;
+        positive(
+            "solver.contact_natural_frequency",
+            s.contact_natural_frequency,
+        )?;
         positive("solver.contact_damping_ratio", s.contact_damping_ratio)?;
         positive("solver.length_unit", s.length_unit)?;
 

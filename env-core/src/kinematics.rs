@@ -83,7 +83,12 @@ impl RobotModel {
     }
 
     /// World-frame pose of the link named `link` for configuration `q`.
-    pub fn link_pose(&self, link: &str, q: &[f64], base: &Isometry3<f64>) -> Result<Isometry3<f64>> {
+    pub fn link_pose(
+        &self,
+        link: &str,
+        q: &[f64],
+        base: &Isometry3<f64>,
+    ) -> Result<Isometry3<f64>> {
         let index = self.link_index(link)?;
         self.validate_configuration(q)?;
         Ok(self.chain_pose(index, q, base))
@@ -255,7 +260,10 @@ fn chain_position(chain: &[usize], joint: usize) -> usize {
 /// Solves `a x = b` for a symmetric positive definite `a` of size 3 or 6 (the damped normal
 /// equations); `None` if it is not positive definite (cannot happen with damping > 0 unless
 /// the inputs are not finite).
-fn solve_spd(a: nalgebra::DMatrix<f64>, b: nalgebra::DVector<f64>) -> Option<nalgebra::DVector<f64>> {
+fn solve_spd(
+    a: nalgebra::DMatrix<f64>,
+    b: nalgebra::DVector<f64>,
+) -> Option<nalgebra::DVector<f64>> {
     if a.nrows() == 6 {
         let a6 = Matrix6::from_iterator(a.iter().copied());
         let b6 = Vector6::from_iterator(b.iter().copied());
@@ -292,8 +300,13 @@ mod tests {
             }
             poses
         };
-        let flange = poses[model.link_index("panda_link8").unwrap()].translation.vector;
-        assert!((flange - Vector3::new(0.088, 0.0, 0.926)).norm() < 1e-9, "{flange}");
+        let flange = poses[model.link_index("panda_link8").unwrap()]
+            .translation
+            .vector;
+        assert!(
+            (flange - Vector3::new(0.088, 0.0, 0.926)).norm() < 1e-9,
+            "{flange}"
+        );
         let tcp = model.tcp_pose(&q, &Isometry3::identity()).unwrap();
         assert!(tcp.translation.z < 0.926 - 0.1);
     }
@@ -343,7 +356,10 @@ mod tests {
             .unwrap();
         assert!(!sol.converged);
         assert!(sol.position_error > 2.0);
-        assert!(matches!(sol.into_result(), Err(Error::IkNotConverged { .. })));
+        assert!(matches!(
+            sol.into_result(),
+            Err(Error::IkNotConverged { .. })
+        ));
     }
 
     #[test]
@@ -352,11 +368,18 @@ mod tests {
         let base = Isometry3::identity();
         assert!(matches!(
             model.tcp_pose(&[0.0; 3], &base),
-            Err(Error::WrongLength { expected: 8, got: 3, .. })
+            Err(Error::WrongLength {
+                expected: 8,
+                got: 3,
+                ..
+            })
         ));
         let mut q = ready();
         q[2] = f64::NAN;
-        assert!(matches!(model.tcp_pose(&q, &base), Err(Error::NonFinite { .. })));
+        assert!(matches!(
+            model.tcp_pose(&q, &base),
+            Err(Error::NonFinite { .. })
+        ));
         let err = model
             .inverse_kinematics(
                 &Vector3::new(f64::INFINITY, 0.0, 0.0),

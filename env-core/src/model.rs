@@ -161,7 +161,11 @@ impl RobotModel {
 
     /// The bundled Franka Panda description (`assets/panda/panda.urdf`).
     pub fn panda() -> Result<Self> {
-        Self::parse(crate::assets::PANDA_URDF, Path::new("."), "assets/panda/panda.urdf")
+        Self::parse(
+            crate::assets::PANDA_URDF,
+            Path::new("."),
+            "assets/panda/panda.urdf",
+        )
     }
 
     fn parse(text: &str, base_dir: &Path, source_name: &str) -> Result<Self> {
@@ -280,14 +284,16 @@ impl RobotModel {
         }
         for (i, j) in urdf.joints.iter().enumerate() {
             if let Some(m) = &j.mimic {
-                let master = joints.iter().position(|o| o.name == m.joint).ok_or_else(|| {
-                    malformed(format!(
-                        "joint `{}` mimics unknown joint `{}`",
-                        j.name, m.joint
-                    ))
-                })?;
-                if !joints[master].joint_type.is_movable() || urdf.joints[master].mimic.is_some()
-                {
+                let master = joints
+                    .iter()
+                    .position(|o| o.name == m.joint)
+                    .ok_or_else(|| {
+                        malformed(format!(
+                            "joint `{}` mimics unknown joint `{}`",
+                            j.name, m.joint
+                        ))
+                    })?;
+                if !joints[master].joint_type.is_movable() || urdf.joints[master].mimic.is_some() {
                     return Err(malformed(format!(
                         "joint `{}` mimics `{}`, which is fixed or itself a mimic",
                         j.name, m.joint
@@ -562,7 +568,10 @@ fn mesh_candidates(filename: &str, base_dir: &Path) -> Vec<PathBuf> {
             .unwrap_or_default();
         // pybullet_data style: `package://meshes/...` relative to the URDF's folder; ROS style:
         // `package://<package>/...` where some ancestor folder is, or contains, the package.
-        for dir in base_dir.ancestors().chain(ros_paths.iter().map(PathBuf::as_path)) {
+        for dir in base_dir
+            .ancestors()
+            .chain(ros_paths.iter().map(PathBuf::as_path))
+        {
             candidates.push(dir.join(package).join(inner));
             if dir.file_name().is_some_and(|n| n == package) {
                 candidates.push(dir.join(inner));

@@ -1,6 +1,7 @@
 //! The one place where rapier's f32 glam types meet the f64 nalgebra types of the public API.
 
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
+
 use rapier3d::math::{Pose, Rotation, Vector};
 
 pub(crate) fn vec_to_na(v: Vector) -> Vector3<f64> {

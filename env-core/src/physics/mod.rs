@@ -10,7 +10,9 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rapier3d::dynamics::{
     JointAxis, MultibodyDofCoupling, MultibodyIndex, RigidBodyBuilder, RigidBodyHandle,
 };
-use rapier3d::geometry::{ColliderBuilder, ColliderHandle, Group, InteractionGroups, MeshConverter};
+use rapier3d::geometry::{
+    ColliderBuilder, ColliderHandle, Group, InteractionGroups, MeshConverter,
+};
 use rapier3d::math::Vector;
 use rapier3d::pipeline::PhysicsWorld;
 use rapier3d_urdf::{UrdfLoaderOptions, UrdfMultibodyOptions, UrdfRobot};
@@ -18,7 +20,7 @@ use rapier3d_urdf::{UrdfLoaderOptions, UrdfMultibodyOptions, UrdfRobot};
 use crate::config::{SimConfig, PANDA_READY};
 use crate::error::{ensure_all_finite, ensure_finite, ensure_len, Error, Result};
 use crate::model::{JointType, RobotModel};
-use convert::{pose_from_na, vec_from_array, vec_from_na, vec_to_na};
+use convert::{pose_from_na, pose_to_na, vec_from_array, vec_from_na, vec_to_na};
 
 /// How one actuated joint is driven.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -314,11 +316,7 @@ impl Simulation {
             ..Default::default()
         };
         let urdf_robot = UrdfRobot::from_robot(model.urdf(), options, std::path::Path::new("/"));
-        let link_sources: Vec<usize> = urdf_robot
-            .links
-            .iter()
-            .map(|l| l.urdf_link_index)
-            .collect();
+        let link_sources: Vec<usize> = urdf_robot.links.iter().map(|l| l.urdf_link_index).collect();
         let joint_sources: Vec<usize> = urdf_robot
             .joints
             .iter()
@@ -336,7 +334,8 @@ impl Simulation {
             .joints()
             .iter()
             .filter(|j| {
-                gripper_joint.is_some_and(|g| j.index == g || j.mimic.is_some_and(|m| m.master == g))
+                gripper_joint
+                    .is_some_and(|g| j.index == g || j.mimic.is_some_and(|m| m.master == g))
             })
             .map(|j| j.child_link_index)
             .collect();
@@ -373,7 +372,10 @@ impl Simulation {
             if handle.joint.is_none() {
                 continue;
             }
-            let Some(link_id) = world.multibody_joints.rigid_body_link(handle.link2).copied()
+            let Some(link_id) = world
+                .multibody_joints
+                .rigid_body_link(handle.link2)
+                .copied()
             else {
                 continue;
             };
@@ -552,7 +554,11 @@ impl Simulation {
         let mut positions = vec![0.0; self.model.joints().len()];
         self.model.expand_positions(&q, &mut positions);
 
-        let Some(mb) = self.world.multibody_joints.get_multibody_mut(self.multibody) else {
+        let Some(mb) = self
+            .world
+            .multibody_joints
+            .get_multibody_mut(self.multibody)
+        else {
             return Ok(());
         };
         let mut displacement = vec![0.0f32; mb.ndofs()];
@@ -644,10 +650,12 @@ impl Simulation {
     /// the fingers' range) squeezing with at most `force` newtons per finger (`None`: the
     /// configured gripper force). Closing on an object holds it by friction alone.
     pub fn set_gripper(&mut self, width: f64, force: Option<f64>) -> Result<()> {
-        let joint = self.gripper_joint.ok_or_else(|| Error::JointNotCommandable {
-            name: "gripper".into(),
-            reason: "this robot has no prismatic finger joint".into(),
-        })?;
+        let joint = self
+            .gripper_joint
+            .ok_or_else(|| Error::JointNotCommandable {
+                name: "gripper".into(),
+                reason: "this robot has no prismatic finger joint".into(),
+            })?;
         ensure_finite(|| "gripper width".into(), width)?;
         let force = force.unwrap_or(self.config.motors.gripper_force);
         let target = width / self.gripper_width_gain(joint);
@@ -690,7 +698,11 @@ impl Simulation {
     /// Pushes the current controls into the rapier joint motors.
     fn apply_motor_settings(&mut self) {
         let motors = &self.config.motors;
-        let Some(mb) = self.world.multibody_joints.get_multibody_mut(self.multibody) else {
+        let Some(mb) = self
+            .world
+            .multibody_joints
+            .get_multibody_mut(self.multibody)
+        else {
             return;
         };
         for (dof, control) in self.controls.iter().enumerate() {
@@ -789,12 +801,15 @@ impl Simulation {
 
     fn body_state(&self, handle: RigidBodyHandle) -> BodyState {
         match self.world.bodies.get(handle) {
-            Some(rb) => BodyState {
-                position: vec_to_na(rb.translation()),
-                orientation: convert::rot_to_na(*rb.rotation()),
-                linear_velocity: vec_to_na(rb.velocity_at_point(rb.translation())),
-                angular_velocity: vec_to_na(rb.angvel()),
-            },
+            Some(rb) => {
+                let pose = pose_to_na(rb.position());
+                BodyState {
+                    position: pose.translation.vector,
+                    orientation: pose.rotation,
+                    linear_velocity: vec_to_na(rb.velocity_at_point(rb.translation())),
+                    angular_velocity: vec_to_na(rb.angvel()),
+                }
+            }
             None => BodyState {
                 position: Vector3::repeat(f64::NAN),
                 orientation: UnitQuaternion::identity(),
@@ -812,7 +827,8 @@ impl Simulation {
         loop {
             if let Some(handle) = self.link_bodies[link] {
                 let body = self.body_state(handle);
-                let pose = Isometry3::from_parts(Translation3::from(body.position), body.orientation);
+                let pose =
+                    Isometry3::from_parts(Translation3::from(body.position), body.orientation);
                 let frame = pose * offset;
                 let lever = frame.translation.vector - body.position;
                 return BodyState {
@@ -865,8 +881,8 @@ impl Simulation {
     pub fn tcp_state(&self) -> BodyState {
         let tcp = self.model.tcp();
         let link = self.link_body_state(tcp.link);
-        let pose = Isometry3::from_parts(Translation3::from(link.position), link.orientation)
-            * tcp.offset;
+        let pose =
+            Isometry3::from_parts(Translation3::from(link.position), link.orientation) * tcp.offset;
         let lever = pose.translation.vector - link.position;
         BodyState {
             position: pose.translation.vector,
@@ -933,11 +949,12 @@ impl Simulation {
     /// Joints or constraints of any kind that attach the cube to another body. The grasp is
     /// frictional, so this is 0.
     pub fn constraints_on_cube(&self) -> usize {
-        self.world
-            .impulse_joints
-            .attached_joints(self.cube)
-            .count()
-            + self.world.multibody_joints.attached_joints(self.cube).count()
+        self.world.impulse_joints.attached_joints(self.cube).count()
+            + self
+                .world
+                .multibody_joints
+                .attached_joints(self.cube)
+                .count()
     }
 
     /// Whether every body's pose and velocity is finite.

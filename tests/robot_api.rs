@@ -1,0 +1,225 @@
+//! The robot API: introspection, teleporting, the three control modes, the gripper, and forward
+//! kinematics that agree with the simulated link poses.
+
+use panda_rapier::nalgebra::{Isometry3, Vector3};
+use panda_rapier::{JointControl, JointType, SimConfig, Simulation, PANDA_READY};
+
+fn sim() -> Simulation {
+    Simulation::new(SimConfig::default()).unwrap()
+}
+
+#[test]
+fn introspection_lists_every_joint_and_link() {
+    let sim = sim();
+    let model = sim.model();
+    assert_eq!(
+        model.joints().len(),
+        11,
+        "7 arm + flange + hand + 2 fingers"
+    );
+    let j1 = &model.joints()[model.joint_index("panda_joint1").unwrap()];
+    assert_eq!(j1.joint_type, JointType::Revolute);
+    assert_eq!(
+        (j1.lower, j1.upper, j1.max_force, j1.max_velocity),
+        (-2.8973, 2.8973, 87.0, 2.175)
+    );
+    assert_eq!(
+        (j1.parent_link.as_str(), j1.child_link.as_str()),
+        ("panda_link0", "panda_link1")
+    );
+    assert_eq!(j1.axis, Vector3::z());
+    let j7 = &model.joints()[model.joint_index("panda_joint7").unwrap()];
+    assert_eq!((j7.max_force, j7.max_velocity), (12.0, 2.61));
+    let hand = &model.joints()[model.joint_index("panda_hand_joint").unwrap()];
+    assert_eq!(hand.joint_type, JointType::Fixed);
+
+    let links = sim.link_states();
+    assert_eq!(links.len(), 12);
+    let total_mass: f64 = links.iter().map(|l| l.mass).sum();
+    // The identified link masses (about 16.1 kg) plus the hand and fingers.
+    assert!(
+        (total_mass - 17.452).abs() < 1e-3,
+        "total mass {total_mass}"
+    );
+    let finger = sim.link_state("panda_leftfinger").unwrap();
+    assert_eq!(finger.friction, 1.0);
+    assert_eq!(finger.mass, 0.015);
+    for l in &links {
+        assert!(l.state.position.iter().all(|v| v.is_finite()), "{}", l.name);
+    }
+}
+
+#[test]
+fn simulated_link_poses_match_forward_kinematics() {
+    let mut sim = sim();
+    let configurations = [
+        PANDA_READY.to_vec(),
+        vec![0.5, 0.3, -0.4, -1.5, 0.7, 2.0, -0.3, 0.01],
+        vec![-1.2, -1.0, 1.5, -2.8, -2.0, 0.5, 2.5, 0.03],
+    ];
+    for q in configurations {
+        sim.set_joint_positions(&q).unwrap();
+        let fk = sim.model().link_poses(&q, sim.base_pose()).unwrap();
+        for link in sim.link_states() {
+            let expected = fk[link.index];
+            let err = (link.state.position - expected.translation.vector).norm();
+            let angle = link.state.orientation.angle_to(&expected.rotation);
+            assert!(
+                err < 2e-5 && angle < 1e-4,
+                "{}: {err} m, {angle} rad",
+                link.name
+            );
+        }
+        let tcp = sim.tcp_state();
+        let tcp_fk = sim.model().tcp_pose(&q, sim.base_pose()).unwrap();
+        assert!((tcp.position - tcp_fk.translation.vector).norm() < 2e-5);
+        let back = sim.joint_positions();
+        for (a, b) in back.iter().zip(&q) {
+            assert!(
+                (a - b).abs() < 1e-5,
+                "teleport read back {back:?} for {q:?}"
+            );
+        }
+        assert!((sim.gripper_width() - 2.0 * q[7]).abs() < 1e-5);
+    }
+}
+
+#[test]
+fn position_control_holds_and_tracks_targets() {
+    let mut sim = sim();
+    let mut target = PANDA_READY.to_vec();
+    target[0] = 0.4;
+    target[3] = -2.0;
+    sim.set_position_targets(&target).unwrap();
+    for _ in 0..50 {
+        sim.step_control();
+    }
+    let q = sim.joint_positions();
+    for (i, (a, b)) in q.iter().zip(&target).enumerate().take(7) {
+        assert!((a - b).abs() < 3e-3, "joint {i}: {a} vs target {b}");
+    }
+    // Targets beyond a limit are clamped to it, not overshot.
+    let j4 = sim.model().joint_index("panda_joint4").unwrap();
+    sim.set_joint_control(j4, JointControl::position(1.0))
+        .unwrap();
+    for _ in 0..50 {
+        sim.step_control();
+    }
+    let q4 = sim.joint_state(j4).unwrap().position;
+    assert!(
+        q4 <= -0.0698 + 2e-3,
+        "joint 4 went to {q4} beyond its upper limit -0.0698"
+    );
+}
+
+#[test]
+fn velocity_control_reaches_the_target_velocity() {
+    let mut sim = sim();
+    let j1 = sim.model().joint_index("panda_joint1").unwrap();
+    sim.set_joint_control(j1, JointControl::velocity(0.5))
+        .unwrap();
+    let start = sim.joint_state(j1).unwrap().position;
+    for _ in 0..10 {
+        sim.step_control();
+    }
+    let state = sim.joint_state(j1).unwrap();
+    assert!(
+        (state.velocity - 0.5).abs() < 0.02,
+        "velocity {}",
+        state.velocity
+    );
+    let moved = state.position - start;
+    assert!(
+        (moved - 0.5 * 0.4).abs() < 0.02,
+        "moved {moved} rad in 0.4 s"
+    );
+}
+
+#[test]
+fn torque_control_applies_clamped_joint_torques() {
+    // With the motor off and no torque, gravity pulls the shoulder down (joint 2 positive).
+    let mut sim = sim();
+    let j2 = sim.model().joint_index("panda_joint2").unwrap();
+    let start = sim.joint_state(j2).unwrap().position;
+    sim.set_joint_control(j2, JointControl::Torque(0.0))
+        .unwrap();
+    for _ in 0..5 {
+        sim.step_control();
+    }
+    let fallen = sim.joint_state(j2).unwrap().position - start;
+    assert!(
+        fallen > 0.01,
+        "joint 2 moved {fallen} rad under gravity with zero torque"
+    );
+
+    // A torque lifting the arm against gravity moves joint 2 the other way; beyond the 87 N m
+    // effort limit the torque is clamped, so 1e6 N m behaves like 87 N m.
+    let run = |torque: f64| {
+        let mut sim = Simulation::new(SimConfig::default()).unwrap();
+        sim.set_joint_control(j2, JointControl::Torque(torque))
+            .unwrap();
+        for _ in 0..3 {
+            sim.step_control();
+        }
+        sim.joint_state(j2).unwrap().position
+    };
+    let lifted = run(-87.0);
+    assert!(
+        lifted < start - 0.01,
+        "joint 2 at {lifted}, started at {start}"
+    );
+    assert_eq!(run(-1e6).to_bits(), lifted.to_bits());
+}
+
+#[test]
+fn gripper_opens_and_closes_with_coupled_fingers() {
+    let mut sim = sim();
+    sim.set_gripper(0.02, None).unwrap();
+    for _ in 0..20 {
+        sim.step_control();
+    }
+    let left = sim
+        .joint_state(sim.model().joint_index("panda_finger_joint1").unwrap())
+        .unwrap();
+    let right = sim
+        .joint_state(sim.model().joint_index("panda_finger_joint2").unwrap())
+        .unwrap();
+    assert!(
+        (sim.gripper_width() - 0.02).abs() < 1e-3,
+        "width {}",
+        sim.gripper_width()
+    );
+    assert!(
+        (left.position - right.position).abs() < 1e-4,
+        "fingers {left:?} vs {right:?}"
+    );
+    sim.set_gripper(0.08, None).unwrap();
+    for _ in 0..20 {
+        sim.step_control();
+    }
+    assert!((sim.gripper_width() - 0.08).abs() < 1e-3);
+}
+
+#[test]
+fn cube_teleports_and_rests_on_the_floor() {
+    let mut sim = sim();
+    let target = Vector3::new(0.6, 0.0, 0.1);
+    sim.set_cube_pose(&target, &Isometry3::identity().rotation)
+        .unwrap();
+    assert_eq!(
+        sim.cube_state().position.map(|v| (v * 1e6).round()),
+        target.map(|v| (v * 1e6).round())
+    );
+    for _ in 0..25 {
+        sim.step_control();
+    }
+    let cube = sim.cube_state();
+    assert!(
+        (cube.position.z - 0.025).abs() < 1e-3,
+        "cube at z = {}",
+        cube.position.z
+    );
+    assert!(sim.cube_contacts().floor);
+    assert!(!sim.cube_contacts().platform);
+    assert!(sim.cube_contacts().robot_links.is_empty());
+}
