@@ -1,1 +1,104 @@
-fn main() {}
+//! Criterion benches of the simulation core: one physics step of the scene (arm moving with the
+//! cube held, and at rest), one IK solve, and building a world (which resets must avoid).
+//!
+//! `cargo bench --bench physics`
+
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use panda_rapier::demo::{self, hand_down, TutorialSequence};
+use panda_rapier::nalgebra::Vector3;
+use panda_rapier::{IkOptions, JointControl, SimConfig, Simulation, PANDA_READY};
+
+/// A simulation with the cube lifted in a closed hand.
+fn holding_cube() -> Simulation {
+    let mut sim = Simulation::new(SimConfig::default()).expect("default scene");
+    let plan = TutorialSequence::for_scene(&sim);
+    demo::run_until(&mut sim, &plan, Some("lift")).expect("grasp sequence");
+    sim
+}
+
+fn physics_step(c: &mut Criterion) {
+    let mut group = c.benchmark_group("physics_step");
+    let mut sim = holding_cube();
+    let j1 = sim.model().joint_index("panda_joint1").unwrap();
+    let q1 = sim.joint_positions()[0];
+    let mut t = 0.0f64;
+    group.bench_function("arm_moving_cube_held", |b| {
+        b.iter(|| {
+            // A 0.5 Hz, 0.3 rad swing of the base joint with velocity feed-forward.
+            t += sim.config().solver.dt;
+            let w = std::f64::consts::PI;
+            sim.set_joint_control(
+                j1,
+                JointControl::Position {
+                    target: q1 + 0.3 * (w * t).sin(),
+                    target_velocity: 0.3 * w * (w * t).cos(),
+                    max_force: None,
+                },
+            )
+            .unwrap();
+            sim.step();
+        })
+    });
+    assert!(
+        sim.cube_state().position.z > 0.1,
+        "the cube fell out of the hand during the bench"
+    );
+
+    let mut idle = Simulation::new(SimConfig::default()).unwrap();
+    group.bench_function("arm_holding_pose_cube_resting", |b| b.iter(|| idle.step()));
+    group.finish();
+}
+
+fn inverse_kinematics(c: &mut Criterion) {
+    let sim = Simulation::new(SimConfig::default()).unwrap();
+    let model = sim.model().clone();
+    let base = *sim.base_pose();
+    let start = model
+        .tcp_pose(&PANDA_READY, &base)
+        .unwrap()
+        .translation
+        .vector;
+    let down = hand_down();
+    let mut group = c.benchmark_group("ik");
+    let options = IkOptions::default();
+    group.bench_function("control_step_1cm_warm_start", |b| {
+        let target = start + Vector3::new(0.01, 0.0, -0.005);
+        b.iter(|| {
+            let s = model
+                .inverse_kinematics(&target, Some(&down), &PANDA_READY, &base, &options)
+                .unwrap();
+            assert!(s.converged);
+            s
+        })
+    });
+    group.bench_function("reach_20cm_away", |b| {
+        let target = Vector3::new(0.5, -0.15, 0.275);
+        b.iter(|| {
+            let s = model
+                .inverse_kinematics(&target, Some(&down), &PANDA_READY, &base, &options)
+                .unwrap();
+            assert!(s.converged);
+            s
+        })
+    });
+    group.finish();
+}
+
+fn build_world(c: &mut Criterion) {
+    c.bench_function("build_world", |b| {
+        b.iter_batched(
+            SimConfig::default,
+            |config| Simulation::new(config).unwrap(),
+            BatchSize::SmallInput,
+        )
+    });
+}
+
+// criterion_group! generates an undocumented public function.
+#[allow(missing_docs)]
+mod group {
+    use super::*;
+    criterion_group!(benches, physics_step, inverse_kinematics, build_world);
+}
+use group::benches;
+criterion_main!(benches);

@@ -1,27 +1,16 @@
 //! The tutorial's manual pick-and-place on the default scene, printed phase by phase.
 //!
-//! `cargo run --release --example pick_and_place`
+//! `cargo run --release --example pick_and_place [config.json]`
 
 use panda_rapier::demo::{self, TutorialSequence};
 use panda_rapier::{SimConfig, Simulation};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut config = SimConfig::default();
-    if let Ok(v) = std::env::var("DT") {
-        config.solver.dt = v.parse()?;
-    }
-    if let Ok(v) = std::env::var("SUB") {
-        config.solver.substeps = v.parse()?;
-    }
-    if let Ok(v) = std::env::var("IT") {
-        config.solver.solver_iterations = v.parse()?;
-    }
-    if let Ok(v) = std::env::var("LU") {
-        config.solver.length_unit = v.parse()?;
-    }
-    if let Ok(v) = std::env::var("NF") {
-        config.solver.contact_natural_frequency = v.parse()?;
-    }
+    // Optional: a JSON file with any SimConfig fields to override (unknown keys are errors).
+    let config = match std::env::args().nth(1) {
+        Some(path) => SimConfig::from_json(&std::fs::read_to_string(path)?)?,
+        None => SimConfig::default(),
+    };
     let mut sim = Simulation::new(config)?;
     let plan = TutorialSequence::for_scene(&sim);
     let start = sim.cube_state().position;

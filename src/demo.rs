@@ -23,7 +23,7 @@ pub struct TutorialSequence {
     pub speed: f64,
     /// Gripper opening when open (m).
     pub open_width: f64,
-    /// Squeeze force per finger when closed (N).
+    /// Gripper drive force when closed (N); each finger presses with half.
     pub grip_force: f64,
 }
 
@@ -95,8 +95,19 @@ pub fn hand_down() -> UnitQuaternion<f64> {
     UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0)
 }
 
-/// Runs the sequence on `sim` from its current state.
+/// Runs the whole sequence on `sim` from its current state.
 pub fn run(sim: &mut Simulation, plan: &TutorialSequence) -> Result<SequenceReport> {
+    run_until(sim, plan, None)
+}
+
+/// Runs the sequence up to and including the phase named `last` (`"open"`, `"move_above"`,
+/// `"descend"`, `"close"`, `"lift"`, `"carry"`, `"lower"`, `"release"`, `"retreat"`), or all
+/// of it for `None`.
+pub fn run_until(
+    sim: &mut Simulation,
+    plan: &TutorialSequence,
+    last: Option<&str>,
+) -> Result<SequenceReport> {
     let cube_start = sim.cube_state().position;
     let above = cube_start + Vector3::new(0.0, 0.0, plan.approach_height);
     let lifted = cube_start + Vector3::new(0.0, 0.0, plan.lift_height);
@@ -264,6 +275,9 @@ pub fn run(sim: &mut Simulation, plan: &TutorialSequence) -> Result<SequenceRepo
             }
         }
         report.phases.push((name, sim.time()));
+        if last == Some(name) {
+            break;
+        }
     }
 
     let cube = sim.cube_state();

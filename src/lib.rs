@@ -6,3 +6,8 @@
 pub use panda_rapier_core::*;
 
 pub mod demo;
+
+/// The README's Rust examples, compiled and run as doc tests.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

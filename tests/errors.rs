@@ -121,8 +121,10 @@ fn invalid_configs_and_assets_are_rejected() {
         matches!(Simulation::new(config), Err(Error::InvalidConfig { field, .. }) if field == "cube.mass")
     );
 
-    let mut config = SimConfig::default();
-    config.robot_urdf = Some("/does/not/exist.urdf".into());
+    let config = SimConfig {
+        robot_urdf: Some("/does/not/exist.urdf".into()),
+        ..Default::default()
+    };
     assert!(matches!(
         Simulation::new(config),
         Err(Error::AssetNotFound { .. })
@@ -132,8 +134,10 @@ fn invalid_configs_and_assets_are_rejected() {
     std::fs::create_dir_all(&dir).unwrap();
     let broken = dir.join("broken.urdf");
     std::fs::write(&broken, "<robot name='r'><link name='a'><joint></robot>").unwrap();
-    let mut config = SimConfig::default();
-    config.robot_urdf = Some(broken);
+    let config = SimConfig {
+        robot_urdf: Some(broken),
+        ..Default::default()
+    };
     assert!(matches!(
         Simulation::new(config),
         Err(Error::MalformedUrdf { .. })
@@ -146,13 +150,17 @@ fn invalid_configs_and_assets_are_rejected() {
            <joint name="j" type="fixed"><parent link="a"/><child link="b"/></joint></robot>"#,
     )
     .unwrap();
-    let mut config = SimConfig::default();
-    config.robot_urdf = Some(fixed_only);
+    let config = SimConfig {
+        robot_urdf: Some(fixed_only),
+        ..Default::default()
+    };
     let err = Simulation::new(config).unwrap_err();
     assert!(matches!(err, Error::MalformedUrdf { .. }), "{err}");
 
-    let mut config = SimConfig::default();
-    config.initial_configuration = Some(vec![0.0; 3]);
+    let config = SimConfig {
+        initial_configuration: Some(vec![0.0; 3]),
+        ..Default::default()
+    };
     assert!(matches!(
         Simulation::new(config),
         Err(Error::WrongLength { .. })

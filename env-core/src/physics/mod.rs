@@ -8,7 +8,7 @@ mod convert;
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rapier3d::dynamics::{
-    JointAxis, MultibodyDofCoupling, MultibodyIndex, RigidBodyBuilder, RigidBodyHandle,
+    JointAxis, MotorModel, MultibodyDofCoupling, MultibodyIndex, RigidBodyBuilder, RigidBodyHandle,
 };
 use rapier3d::geometry::{
     ColliderBuilder, ColliderHandle, Group, InteractionGroups, MeshConverter,
@@ -126,6 +126,8 @@ pub struct LinkState {
     pub mass: f64,
     /// Friction coefficient of the link's colliders (0 when it has none).
     pub friction: f64,
+    /// Number of colliders attached to the link (primitives, or convex hulls of meshes).
+    pub num_colliders: usize,
     /// Pose and velocity of the link frame.
     pub state: BodyState,
 }
@@ -144,6 +146,8 @@ pub struct JointState {
 pub struct CubeContacts {
     /// Robot links (indices into [`RobotModel::links`]) with an active contact.
     pub robot_links: Vec<usize>,
+    /// Normal contact force (N) each of those links pushes the cube with, in the same order.
+    pub robot_forces: Vec<f64>,
     /// Touching the floor.
     pub floor: bool,
     /// Touching the platform.
@@ -412,6 +416,24 @@ impl Simulation {
         // that let a held cube drift sideways.
         if let Some(mb) = world.multibody_joints.get_multibody_mut(multibody) {
             for j in model.joints() {
+                let Some(slot) = joint_slots[j.index] else {
+                    continue;
+                };
+                let is_finger = gripper_joint
+                    .is_some_and(|g| j.index == g || j.mimic.is_some_and(|m| m.master == g));
+                let armature = if is_finger {
+                    config.motors.finger_armature
+                } else {
+                    config.motors.arm_armature
+                };
+                if let Some(link) = mb.link(slot.link_id) {
+                    let dof = link.assembly_id();
+                    if dof < mb.armature().len() {
+                        mb.armature_mut()[dof] = armature as f32;
+                    }
+                }
+            }
+            for j in model.joints() {
                 if let (Some(m), Some(slave)) = (j.mimic, joint_slots[j.index]) {
                     if let Some(master) = joint_slots[m.master] {
                         mb.add_dof_coupling(MultibodyDofCoupling {
@@ -647,8 +669,9 @@ impl Simulation {
     }
 
     /// Drives the gripper to an opening of `width` metres (between the finger pads, clamped to
-    /// the fingers' range) squeezing with at most `force` newtons per finger (`None`: the
-    /// configured gripper force). Closing on an object holds it by friction alone.
+    /// the fingers' range) with a drive force of at most `force` newtons (`None`: the
+    /// configured gripper force); the two coupled fingers share it, so closed on an object each
+    /// presses with half. Closing on an object holds it by friction alone.
     pub fn set_gripper(&mut self, width: f64, force: Option<f64>) -> Result<()> {
         let joint = self
             .gripper_joint
@@ -715,22 +738,38 @@ impl Simulation {
             };
             let effort = joint.max_force;
             let data = &mut link.joint.data;
+            let is_gripper = Some(joint.index) == self.gripper_joint;
             match *control {
                 JointControl::Position {
                     target,
                     target_velocity,
                     max_force,
                 } => {
+                    let (model, stiffness, damping) = if is_gripper {
+                        (
+                            MotorModel::ForceBased,
+                            motors.gripper_stiffness,
+                            motors.gripper_damping,
+                        )
+                    } else {
+                        (
+                            MotorModel::AccelerationBased,
+                            motors.stiffness,
+                            motors.damping,
+                        )
+                    };
+                    data.set_motor_model(slot.axis, model);
                     data.set_motor(
                         slot.axis,
                         joint.clamp(target) as f32,
                         target_velocity as f32,
-                        motors.stiffness as f32,
-                        motors.damping as f32,
+                        stiffness as f32,
+                        damping as f32,
                     );
                     data.set_motor_max_force(slot.axis, max_force.unwrap_or(effort) as f32);
                 }
                 JointControl::Velocity { target, max_force } => {
+                    data.set_motor_model(slot.axis, MotorModel::AccelerationBased);
                     data.set_motor(
                         slot.axis,
                         0.0,
@@ -866,6 +905,11 @@ impl Simulation {
             name: info.name.clone(),
             mass: info.mass,
             friction: self.link_friction[index],
+            num_colliders: self
+                .robot_colliders
+                .iter()
+                .filter(|(_, link)| *link == index)
+                .count(),
             state: self.link_body_state(index),
         }
     }
@@ -937,12 +981,16 @@ impl Simulation {
                 contacts.platform = true;
             } else if let Some(&(_, link)) = self.robot_colliders.iter().find(|(c, _)| *c == other)
             {
-                if !contacts.robot_links.contains(&link) {
-                    contacts.robot_links.push(link);
+                let force = pair.total_impulse().length() as f64 / self.config.solver.dt;
+                match contacts.robot_links.iter().position(|&l| l == link) {
+                    Some(i) => contacts.robot_forces[i] += force,
+                    None => {
+                        contacts.robot_links.push(link);
+                        contacts.robot_forces.push(force);
+                    }
                 }
             }
         }
-        contacts.robot_links.sort_unstable();
         contacts
     }
 
