@@ -149,44 +149,54 @@ impl RobotModel {
         if let Some(o) = orientation {
             crate::error::ensure_all_finite("IK target orientation", o.coords.as_slice())?;
         }
-        let chain = self.chain_to(self.tcp().link);
-        // Each chain joint contributes to the column of the dof that drives it.
-        let columns: Vec<(usize, usize, f64)> = chain
-            .iter()
-            .filter_map(|&j| {
-                let joint = &self.joints()[j];
-                match (joint.dof, joint.mimic) {
-                    (Some(d), _) => Some((j, d, 1.0)),
-                    (None, Some(m)) => self.joints()[m.master].dof.map(|d| (j, d, m.multiplier)),
-                    (None, None) => None,
-                }
-            })
-            .collect();
-        let mut dofs: Vec<usize> = columns.iter().map(|c| c.1).collect();
-        dofs.sort_unstable();
-        dofs.dedup();
+        // Each chain joint drives one column: its own dof, or its master's for a mimic joint.
+        // Fixed joints fold into the transform in front of the next movable joint.
+        struct Column {
+            joint: usize,
+            dof: usize,
+            gain: f64,
+            prismatic: bool,
+            before: Isometry3<f64>,
+        }
+        let mut columns: Vec<Column> = Vec::new();
+        let mut fixed_tail = Isometry3::identity();
+        for j in self.chain_to(self.tcp().link) {
+            let joint = &self.joints()[j];
+            fixed_tail *= joint.origin;
+            let driver = match (joint.dof, joint.mimic) {
+                (Some(d), _) => Some((d, 1.0)),
+                (None, Some(m)) => self.joints()[m.master].dof.map(|d| (d, m.multiplier)),
+                (None, None) => None,
+            };
+            if let Some((dof, gain)) = driver {
+                columns.push(Column {
+                    joint: j,
+                    dof,
+                    gain,
+                    prismatic: joint.joint_type == JointType::Prismatic,
+                    before: fixed_tail,
+                });
+                fixed_tail = Isometry3::identity();
+            }
+        }
 
         let mut q = q_start.to_vec();
         self.clamp_configuration(&mut q);
-        let rows = if orientation.is_some() { 6 } else { 3 };
-        let mut joint_frames: Vec<(Vector3<f64>, Vector3<f64>, JointType)> =
-            Vec::with_capacity(chain.len());
+        let mut jacobian: Vec<Vector6<f64>> = vec![Vector6::zeros(); columns.len()];
+        let mut axes: Vec<(Vector3<f64>, Vector3<f64>)> = vec![Default::default(); columns.len()];
+        let mut step = vec![0.0; q.len()];
+        let lambda2 = options.damping * options.damping;
         let mut iterations = 0;
         loop {
-            // Forward pass along the chain, remembering each joint's world axis and origin.
-            joint_frames.clear();
+            // Forward pass: world axis and origin of each movable chain joint, and the TCP.
             let mut pose = *base;
-            for &j in &chain {
-                let joint = &self.joints()[j];
-                let frame = pose * joint.origin;
-                joint_frames.push((
-                    frame.rotation * joint.axis,
-                    frame.translation.vector,
-                    joint.joint_type,
-                ));
-                pose *= self.joint_transform(j, self.joint_position(j, &q));
+            for (column, axis) in columns.iter().zip(axes.iter_mut()) {
+                pose *= column.before;
+                let joint = &self.joints()[column.joint];
+                *axis = (pose.rotation * joint.axis, pose.translation.vector);
+                pose *= self.joint_motion(column.joint, self.joint_position(column.joint, &q));
             }
-            let tcp = pose * self.tcp().offset;
+            let tcp = pose * fixed_tail * self.tcp().offset;
             let p = tcp.translation.vector;
             let position_error = position - p;
             let orientation_error = orientation
@@ -206,32 +216,27 @@ impl RobotModel {
             }
             iterations += 1;
 
-            // Geometric Jacobian (6 x dofs), columns in `dofs` order.
-            let mut jac = nalgebra::DMatrix::<f64>::zeros(rows, dofs.len());
-            for (k, &(_, dof, gain)) in columns.iter().enumerate() {
-                let (axis, origin, kind) = joint_frames[chain_position(&chain, columns[k].0)];
-                let col = dofs.binary_search(&dof).unwrap_or(0);
-                let (lin, ang) = match kind {
-                    JointType::Prismatic => (axis, Vector3::zeros()),
-                    _ => (axis.cross(&(p - origin)), axis),
+            // Damped least squares: dq = J^T (J J^T + lambda^2 I)^-1 e. Position-only solves
+            // leave the angular rows at zero, so their part of the solution is zero too.
+            let mut jjt = Matrix6::identity() * lambda2;
+            for ((column, &(axis, origin)), col) in columns.iter().zip(&axes).zip(&mut jacobian) {
+                let (linear, angular) = if column.prismatic {
+                    (axis, Vector3::zeros())
+                } else {
+                    (axis.cross(&(p - origin)), axis)
                 };
-                for r in 0..3 {
-                    jac[(r, col)] += gain * lin[r];
-                    if rows == 6 {
-                        jac[(r + 3, col)] += gain * ang[r];
-                    }
+                col.fixed_rows_mut::<3>(0)
+                    .copy_from(&(linear * column.gain));
+                if orientation.is_some() {
+                    col.fixed_rows_mut::<3>(3)
+                        .copy_from(&(angular * column.gain));
                 }
+                jjt += *col * col.transpose();
             }
-            let mut err = Vector6::zeros();
-            err.fixed_rows_mut::<3>(0).copy_from(&position_error);
-            err.fixed_rows_mut::<3>(3).copy_from(&orientation_error);
-            let err = err.rows(0, rows).into_owned();
-            let mut jjt = &jac * jac.transpose();
-            let lambda2 = options.damping * options.damping;
-            for r in 0..rows {
-                jjt[(r, r)] += lambda2;
-            }
-            let Some(y) = solve_spd(jjt, err) else {
+            let mut error = Vector6::zeros();
+            error.fixed_rows_mut::<3>(0).copy_from(&position_error);
+            error.fixed_rows_mut::<3>(3).copy_from(&orientation_error);
+            let Some(cholesky) = jjt.cholesky() else {
                 return Ok(IkSolution {
                     q,
                     position_error: pe,
@@ -240,37 +245,23 @@ impl RobotModel {
                     converged: false,
                 });
             };
-            let mut dq = jac.transpose() * y;
-            let largest = dq.amax();
-            if largest > options.max_step {
-                dq *= options.max_step / largest;
+            let y = cholesky.solve(&error);
+            // Columns of one dof (a joint and its mimics) add up.
+            step.fill(0.0);
+            for (column, col) in columns.iter().zip(&jacobian) {
+                step[column.dof] += col.dot(&y);
             }
-            for (col, &dof) in dofs.iter().enumerate() {
-                q[dof] += dq[col];
+            let largest = step.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let scale = if largest > options.max_step {
+                options.max_step / largest
+            } else {
+                1.0
+            };
+            for (value, dq) in q.iter_mut().zip(&step) {
+                *value += dq * scale;
             }
             self.clamp_configuration(&mut q);
         }
-    }
-}
-
-fn chain_position(chain: &[usize], joint: usize) -> usize {
-    chain.iter().position(|&j| j == joint).unwrap_or(0)
-}
-
-/// Solves `a x = b` for a symmetric positive definite `a` of size 3 or 6 (the damped normal
-/// equations); `None` if it is not positive definite (cannot happen with damping > 0 unless
-/// the inputs are not finite).
-fn solve_spd(
-    a: nalgebra::DMatrix<f64>,
-    b: nalgebra::DVector<f64>,
-) -> Option<nalgebra::DVector<f64>> {
-    if a.nrows() == 6 {
-        let a6 = Matrix6::from_iterator(a.iter().copied());
-        let b6 = Vector6::from_iterator(b.iter().copied());
-        let x = a6.cholesky()?.solve(&b6);
-        Some(nalgebra::DVector::from_column_slice(x.as_slice()))
-    } else {
-        a.cholesky().map(|c| c.solve(&b))
     }
 }
 

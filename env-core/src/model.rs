@@ -490,8 +490,13 @@ impl RobotModel {
     /// The pose of the child link of joint `joint` relative to its parent link at joint
     /// position `position`.
     pub(crate) fn joint_transform(&self, joint: usize, position: f64) -> Isometry3<f64> {
+        self.joints[joint].origin * self.joint_motion(joint, position)
+    }
+
+    /// The motion of joint `joint` at `position`, in its own frame (after its origin).
+    pub(crate) fn joint_motion(&self, joint: usize, position: f64) -> Isometry3<f64> {
         let j = &self.joints[joint];
-        let motion = match j.joint_type {
+        match j.joint_type {
             JointType::Revolute | JointType::Continuous => Isometry3::from_parts(
                 Translation3::identity(),
                 UnitQuaternion::from_axis_angle(&Unit::new_unchecked(j.axis), position),
@@ -502,8 +507,7 @@ impl RobotModel {
                 j.axis.z * position,
             ),
             JointType::Fixed => Isometry3::identity(),
-        };
-        j.origin * motion
+        }
     }
 }
 
