@@ -1,5 +1,5 @@
 //! Contract: the same configuration and the same commands give bit-identical states, whichever
-//! thread runs the simulation and whatever else runs beside it.
+//! thread or process runs the simulation and whatever else runs beside it.
 
 use panda_rapier::demo::{self, TutorialSequence};
 use panda_rapier::{JointControl, SimConfig, Simulation};
@@ -74,4 +74,43 @@ fn thread_placement_does_not_change_results() {
     for run in parallel {
         assert_eq!(run, reference);
     }
+}
+
+/// Set in the child process of `another_process_gives_the_same_bits`.
+const CHILD: &str = "PANDA_RAPIER_DETERMINISM_CHILD";
+
+#[test]
+fn another_process_gives_the_same_bits() {
+    let print = |runs: &[Vec<u64>]| {
+        runs.iter()
+            .map(|r| r.iter().map(|b| format!("{b:016x}")).collect::<String>())
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    if std::env::var_os(CHILD).is_some() {
+        println!("BITS\n{}\nEND", print(&scripted_run()));
+        return;
+    }
+    let output = std::process::Command::new(std::env::current_exe().unwrap())
+        .args([
+            "--exact",
+            "another_process_gives_the_same_bits",
+            "--nocapture",
+            "--test-threads=1",
+        ])
+        .env(CHILD, "1")
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let child = stdout
+        .split("BITS\n")
+        .nth(1)
+        .and_then(|rest| rest.split("\nEND").next())
+        .expect("the child printed its fingerprint");
+    assert_eq!(child, print(&scripted_run()));
 }

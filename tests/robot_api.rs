@@ -223,3 +223,49 @@ fn cube_teleports_and_rests_on_the_floor() {
     assert!(!sim.cube_contacts().platform);
     assert!(sim.cube_contacts().robot_links.is_empty());
 }
+
+#[test]
+fn the_hand_collides_with_the_platform_and_the_floor() {
+    // Drive the hand straight down onto the platform and onto the floor with position control:
+    // the arm is dynamic, so the surfaces stop it instead of letting it sink in.
+    use panda_rapier::demo::hand_down;
+    use panda_rapier::IkOptions;
+    for (x, y, surface) in [(0.5, 0.3, 0.1), (0.5, -0.15, 0.0)] {
+        let mut sim = sim();
+        let below = Vector3::new(x, y, surface - 0.05);
+        let ik = sim
+            .model()
+            .inverse_kinematics(
+                &below,
+                Some(&hand_down()),
+                &sim.joint_positions(),
+                sim.base_pose(),
+                &IkOptions::default(),
+            )
+            .unwrap();
+        let mut targets = ik.q.clone();
+        targets[7] = 0.0;
+        sim.set_cube_pose(&Vector3::new(0.3, -0.4, 0.025), &Default::default())
+            .unwrap();
+        sim.set_position_targets(&targets).unwrap();
+        for _ in 0..75 {
+            sim.step_control();
+        }
+        let lowest = sim
+            .link_states()
+            .iter()
+            .filter(|l| l.num_colliders > 0 && l.name != "panda_link0")
+            .map(|l| l.state.position.z)
+            .fold(f64::INFINITY, f64::min);
+        let fingertip = sim.tcp_state().position.z - 0.0084;
+        assert!(
+            fingertip > surface - 0.003,
+            "fingertips at z = {fingertip:.4}, the surface is at {surface}"
+        );
+        assert!(
+            lowest > surface - 0.01,
+            "a link frame went below the surface: {lowest}"
+        );
+        assert!(sim.is_finite());
+    }
+}
