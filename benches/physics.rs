@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use panda_rapier::demo::{self, hand_down, TutorialSequence};
 use panda_rapier::nalgebra::Vector3;
-use panda_rapier::{IkOptions, JointControl, SimConfig, Simulation, PANDA_READY};
+use panda_rapier::{IkOptions, SimConfig, Simulation, PANDA_READY};
 
 /// A simulation with the cube lifted in a closed hand.
 fn holding_cube() -> Simulation {
@@ -31,23 +31,12 @@ fn physics_step(c: &mut Criterion) {
             let mut done = 0;
             while done < iters {
                 let mut sim = holding_cube();
-                let j1 = sim.model().joint_index("panda_joint1").unwrap();
                 let q1 = sim.joint_positions()[0];
-                let w = std::f64::consts::PI;
                 let n = STEPS_PER_SCENE.min(iters - done);
                 let start = Instant::now();
                 for k in 0..n {
-                    // A 0.5 Hz, 0.3 rad swing of the base joint with velocity feed-forward.
                     let t = k as f64 * sim.config().solver.dt;
-                    sim.set_joint_control(
-                        j1,
-                        JointControl::Position {
-                            target: q1 + 0.3 * (w * t).sin(),
-                            target_velocity: 0.3 * w * (w * t).cos(),
-                            max_force: None,
-                        },
-                    )
-                    .unwrap();
+                    demo::swing_base_joint(&mut sim, q1, t).unwrap();
                     sim.step();
                 }
                 timed += start.elapsed();

@@ -187,9 +187,9 @@ pub fn run_until(
     let mut q_command = sim.joint_positions();
     let orientation = hand_down();
     let period = sim.control_period();
-    let mut grasp_reference: Option<Isometry3<f64>> = None;
+    let mut grasp_slip = SlipTracker::default();
+    let mut carry_slip = SlipTracker::default();
     let mut carry_start = None;
-    let mut carry_reference: Option<Isometry3<f64>> = None;
 
     for (name, phase) in phases {
         let mut observe = |sim: &Simulation, report: &mut SequenceReport| {
@@ -203,33 +203,15 @@ pub fn run_until(
                 .max_constraints_on_cube
                 .max(sim.constraints_on_cube());
             report.lift = report.lift.max(cube.position.z - cube_start.z);
+            let pose = |b: &panda_rapier_core::BodyState| {
+                Isometry3::from_parts(Translation3::from(b.position), b.orientation)
+            };
+            let in_hand = pose(&tcp).inverse() * pose(&cube);
             if matches!(name, "lift" | "carry" | "lower") {
-                let tcp_pose =
-                    Isometry3::from_parts(Translation3::from(tcp.position), tcp.orientation);
-                let cube_pose =
-                    Isometry3::from_parts(Translation3::from(cube.position), cube.orientation);
-                let in_hand = tcp_pose.inverse() * cube_pose;
-                let reference = *grasp_reference.get_or_insert(in_hand);
-                report.max_slip = report
-                    .max_slip
-                    .max((in_hand.translation.vector - reference.translation.vector).norm());
-                report.max_slip_angle = report
-                    .max_slip_angle
-                    .max(in_hand.rotation.angle_to(&reference.rotation));
+                grasp_slip.update(&in_hand);
             }
             if name == "carry" {
-                let tcp_pose =
-                    Isometry3::from_parts(Translation3::from(tcp.position), tcp.orientation);
-                let cube_pose =
-                    Isometry3::from_parts(Translation3::from(cube.position), cube.orientation);
-                let in_hand = tcp_pose.inverse() * cube_pose;
-                let reference = *carry_reference.get_or_insert(in_hand);
-                report.carry_slip = report
-                    .carry_slip
-                    .max((in_hand.translation.vector - reference.translation.vector).norm());
-                report.carry_slip_angle = report
-                    .carry_slip_angle
-                    .max(in_hand.rotation.angle_to(&reference.rotation));
+                carry_slip.update(&in_hand);
                 let start = *carry_start.get_or_insert(cube.position);
                 let d = cube.position - start;
                 report.carry_distance = report.carry_distance.max((d.x * d.x + d.y * d.y).sqrt());
@@ -280,6 +262,8 @@ pub fn run_until(
         }
     }
 
+    (report.max_slip, report.max_slip_angle) = (grasp_slip.distance, grasp_slip.angle);
+    (report.carry_slip, report.carry_slip_angle) = (carry_slip.distance, carry_slip.angle);
     let cube = sim.cube_state();
     report.final_position = cube.position;
     let d = cube.position - plan.place_at;
@@ -288,6 +272,40 @@ pub fn run_until(
     let contacts = sim.cube_contacts();
     report.on_platform = contacts.platform && contacts.robot_links.is_empty();
     Ok(report)
+}
+
+/// Largest displacement and rotation of the cube in the hand since the first update.
+#[derive(Default)]
+struct SlipTracker {
+    reference: Option<Isometry3<f64>>,
+    distance: f64,
+    angle: f64,
+}
+
+impl SlipTracker {
+    fn update(&mut self, cube_in_hand: &Isometry3<f64>) {
+        let reference = *self.reference.get_or_insert(*cube_in_hand);
+        let moved = cube_in_hand.translation.vector - reference.translation.vector;
+        self.distance = self.distance.max(moved.norm());
+        self.angle = self
+            .angle
+            .max(cube_in_hand.rotation.angle_to(&reference.rotation));
+    }
+}
+
+/// Position control of the base joint swinging about `center`: 0.3 rad at 0.5 Hz, with
+/// velocity feed-forward, at time `t`. A sustained motion for grasp endurance tests and benches.
+pub fn swing_base_joint(sim: &mut Simulation, center: f64, t: f64) -> Result<()> {
+    let j1 = sim.model().actuated_joints()[0];
+    let w = std::f64::consts::PI;
+    sim.set_joint_control(
+        j1,
+        JointControl::Position {
+            target: center + 0.3 * (w * t).sin(),
+            target_velocity: 0.3 * w * (w * t).cos(),
+            max_force: None,
+        },
+    )
 }
 
 fn steps_for(seconds: f64, period: f64) -> usize {

@@ -78,7 +78,6 @@ fn a_held_cube_stays_in_the_hand_through_30_seconds_of_swinging() {
     // hand. Swing the base joint at 0.5 Hz, 0.3 rad, for 30 s (15 episodes' worth). Measured
     // with the defaults: 3.8 mm of creep after 10 s, 11 mm after 30 s, still held; with 4 solver
     // iterations the cube dropped within 60 s.
-    use panda_rapier::JointControl;
     let mut sim = Simulation::new(SimConfig::default()).unwrap();
     let plan = TutorialSequence::for_scene(&sim);
     demo::run_until(&mut sim, &plan, Some("lift")).unwrap();
@@ -88,21 +87,11 @@ fn a_held_cube_stays_in_the_hand_through_30_seconds_of_swinging() {
         tcp.orientation.inverse() * (sim.cube_state().position - tcp.position)
     };
     let start = in_hand(&sim);
-    let j1 = sim.model().joint_index("panda_joint1").unwrap();
     let q1 = sim.joint_positions()[0];
-    let w = std::f64::consts::PI;
     let mut drift = Vec::new();
     for k in 1..=3000 {
         let t = k as f64 * sim.config().solver.dt;
-        sim.set_joint_control(
-            j1,
-            JointControl::Position {
-                target: q1 + 0.3 * (w * t).sin(),
-                target_velocity: 0.3 * w * (w * t).cos(),
-                max_force: None,
-            },
-        )
-        .unwrap();
+        demo::swing_base_joint(&mut sim, q1, t).unwrap();
         sim.step();
         drift.push((in_hand(&sim) - start).norm());
     }
