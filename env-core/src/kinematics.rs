@@ -112,17 +112,6 @@ impl RobotModel {
         chain
     }
 
-    fn joint_position(&self, joint: usize, q: &[f64]) -> f64 {
-        let j = &self.joints()[joint];
-        match (j.dof, j.mimic) {
-            (Some(d), _) => q[d],
-            (None, Some(m)) => {
-                m.multiplier * self.joints()[m.master].dof.map_or(0.0, |d| q[d]) + m.offset
-            }
-            (None, None) => 0.0,
-        }
-    }
-
     fn chain_pose(&self, link: usize, q: &[f64], base: &Isometry3<f64>) -> Isometry3<f64> {
         self.chain_to(link).into_iter().fold(*base, |pose, j| {
             pose * self.joint_transform(j, self.joint_position(j, q))
@@ -163,12 +152,7 @@ impl RobotModel {
         for j in self.chain_to(self.tcp().link) {
             let joint = &self.joints()[j];
             fixed_tail *= joint.origin;
-            let driver = match (joint.dof, joint.mimic) {
-                (Some(d), _) => Some((d, 1.0)),
-                (None, Some(m)) => self.joints()[m.master].dof.map(|d| (d, m.multiplier)),
-                (None, None) => None,
-            };
-            if let Some((dof, gain)) = driver {
+            if let Some((dof, gain)) = self.joint_driver(j) {
                 columns.push(Column {
                     joint: j,
                     dof,

@@ -463,15 +463,26 @@ impl RobotModel {
     /// configuration `q`; no validation, `q` must have `num_dofs()` entries.
     pub(crate) fn expand_positions(&self, q: &[f64], out: &mut [f64]) {
         for j in &self.joints {
-            out[j.index] = match (j.dof, j.mimic) {
-                (Some(d), _) => q[d],
-                (None, Some(m)) => {
-                    let master = self.joints[m.master].dof.map_or(0.0, |d| q[d]);
-                    m.multiplier * master + m.offset
-                }
-                (None, None) => 0.0,
-            };
+            out[j.index] = self.joint_position(j.index, q);
         }
+    }
+
+    /// The entry of `q` that moves joint `joint` and the gain it moves it with: its own dof
+    /// (gain 1), its master's for a mimic joint (the mimic multiplier), `None` for fixed joints.
+    pub(crate) fn joint_driver(&self, joint: usize) -> Option<(usize, f64)> {
+        let j = &self.joints[joint];
+        match (j.dof, j.mimic) {
+            (Some(d), _) => Some((d, 1.0)),
+            (None, Some(m)) => self.joints[m.master].dof.map(|d| (d, m.multiplier)),
+            (None, None) => None,
+        }
+    }
+
+    /// Position of joint `joint` in configuration `q` (fixed joints read 0).
+    pub(crate) fn joint_position(&self, joint: usize, q: &[f64]) -> f64 {
+        let offset = self.joints[joint].mimic.map_or(0.0, |m| m.offset);
+        self.joint_driver(joint)
+            .map_or(0.0, |(dof, gain)| gain * q[dof] + offset)
     }
 
     /// Checks that `q` has one finite entry per actuated joint.

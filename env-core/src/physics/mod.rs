@@ -193,6 +193,8 @@ pub struct Simulation {
     controls: Vec<JointControl>,
     /// The gripper's driving joint (index into joints), when the robot has one.
     gripper_joint: Option<usize>,
+    /// The gripper's driving joint followed by the joints mimicking it (one per finger).
+    finger_joints: Vec<usize>,
     robot_colliders: Vec<(ColliderHandle, usize)>,
     cube: RigidBodyHandle,
     cube_collider: ColliderHandle,
@@ -334,14 +336,19 @@ impl Simulation {
         );
 
         let gripper_joint = find_gripper_joint(&model);
-        let finger_links: Vec<usize> = model
+        // The gripper's driving joint and the joints mimicking it: one per finger.
+        let finger_joints: Vec<usize> = model
             .joints()
             .iter()
             .filter(|j| {
                 gripper_joint
                     .is_some_and(|g| j.index == g || j.mimic.is_some_and(|m| m.master == g))
             })
-            .map(|j| j.child_link_index)
+            .map(|j| j.index)
+            .collect();
+        let finger_links: Vec<usize> = finger_joints
+            .iter()
+            .map(|&j| model.joints()[j].child_link_index)
             .collect();
         let proximal = proximal_links(&model);
 
@@ -419,9 +426,7 @@ impl Simulation {
                 let Some(slot) = joint_slots[j.index] else {
                     continue;
                 };
-                let is_finger = gripper_joint
-                    .is_some_and(|g| j.index == g || j.mimic.is_some_and(|m| m.master == g));
-                let armature = if is_finger {
+                let armature = if finger_joints.contains(&j.index) {
                     config.motors.finger_armature
                 } else {
                     config.motors.arm_armature
@@ -463,6 +468,7 @@ impl Simulation {
             joint_slots,
             controls,
             gripper_joint,
+            finger_joints,
             robot_colliders,
             cube,
             cube_collider,
@@ -681,41 +687,28 @@ impl Simulation {
             })?;
         ensure_finite(|| "gripper width".into(), width)?;
         let force = force.unwrap_or(self.config.motors.gripper_force);
-        let target = width / self.gripper_width_gain(joint);
+        // The opening is the sum of the finger joints' positions, all driven by `joint`.
+        let gain: f64 = self
+            .finger_joints
+            .iter()
+            .filter_map(|&j| self.model.joint_driver(j).map(|(_, g)| g))
+            .sum();
         self.set_joint_control(
             joint,
             JointControl::Position {
-                target,
+                target: width / gain,
                 target_velocity: 0.0,
                 max_force: Some(force),
             },
         )
     }
 
-    /// Opening per unit of the gripper joint: 1 plus the multipliers of the joints mimicking it.
-    fn gripper_width_gain(&self, joint: usize) -> f64 {
-        1.0 + self
-            .model
-            .joints()
-            .iter()
-            .filter_map(|j| j.mimic.filter(|m| m.master == joint))
-            .map(|m| m.multiplier)
-            .sum::<f64>()
-    }
-
     /// Opening between the finger pads (m); 0 for robots without a gripper.
     pub fn gripper_width(&self) -> f64 {
-        let Some(g) = self.gripper_joint else {
-            return 0.0;
-        };
-        self.read_joint(g).position
-            + self
-                .model
-                .joints()
-                .iter()
-                .filter(|j| j.mimic.is_some_and(|m| m.master == g))
-                .map(|j| self.read_joint(j.index).position)
-                .sum::<f64>()
+        self.finger_joints
+            .iter()
+            .map(|&j| self.read_joint(j).position)
+            .sum()
     }
 
     /// Pushes the current controls into the rapier joint motors.
