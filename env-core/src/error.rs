@@ -101,6 +101,19 @@ pub enum Error {
         /// Iterations spent.
         iterations: usize,
     },
+    /// The call is not valid in the environment's current state (stepping before the first
+    /// reset, or after the physics became unstable).
+    #[error("reset needed: {reason}")]
+    ResetNeeded {
+        /// Why a reset is needed first.
+        reason: String,
+    },
+    /// A state snapshot taken from a differently configured world.
+    #[error("snapshot does not fit this environment: {reason}")]
+    SnapshotMismatch {
+        /// What differs.
+        reason: String,
+    },
 }
 
 /// Result alias for the core.

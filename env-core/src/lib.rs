@@ -8,6 +8,8 @@
 //! - [`RobotModel`]: the robot description read from a URDF (introspection, kinematics).
 //! - [`Simulation`]: one physics world; the only type that talks to rapier.
 //! - [`SimConfig`]: validated, serde-deserialisable configuration.
+//! - [`PickAndPlaceEnv`] / [`EnvConfig`]: the pick-and-place task as an RL environment.
+//! - [`VecEnv`]: many environments stepped in parallel into contiguous buffers.
 //! - [`Error`]: every failure, typed.
 
 pub mod assets;
@@ -16,12 +18,22 @@ pub mod error;
 pub mod kinematics;
 pub mod model;
 pub mod physics;
+pub mod task;
+pub mod vector;
 
 pub use config::{CubeConfig, MotorConfig, PlatformConfig, SimConfig, SolverConfig, PANDA_READY};
 pub use error::{Error, Result};
 pub use kinematics::{IkOptions, IkSolution};
 pub use model::{JointInfo, JointType, LinkInfo, Mimic, RobotModel, Tcp};
-pub use physics::{BodyState, CubeContacts, JointControl, JointState, LinkState, Simulation};
+pub use physics::{
+    BodyState, CubeContacts, CubeTouch, JointControl, JointState, LinkState, SimSnapshot,
+    Simulation,
+};
+pub use task::{
+    ControlMode, EnvConfig, EnvSnapshot, ObservationLayout, PickAndPlaceEnv, ResetOptions,
+    RewardType, StepInfo, Transition,
+};
+pub use vector::{AutoresetMode, VecEnv};
 
 /// Re-exported so users can name the math types of the API without a second nalgebra.
 pub use nalgebra;

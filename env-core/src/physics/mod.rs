@@ -8,10 +8,12 @@ mod convert;
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rapier3d::dynamics::{
-    JointAxis, MotorModel, MultibodyDofCoupling, MultibodyIndex, RigidBodyBuilder, RigidBodyHandle,
+    ImpulseJointSet, IslandManager, JointAxis, MotorModel, MultibodyDofCoupling, MultibodyIndex,
+    MultibodyJointSet, RigidBodyBuilder, RigidBodyHandle, RigidBodySet,
 };
 use rapier3d::geometry::{
-    ColliderBuilder, ColliderHandle, Group, InteractionGroups, MeshConverter,
+    BroadPhaseBvh, ColliderBuilder, ColliderHandle, ColliderSet, Group, InteractionGroups,
+    MeshConverter, NarrowPhase, SharedShape,
 };
 use rapier3d::math::Vector;
 use rapier3d::pipeline::PhysicsWorld;
@@ -154,6 +156,54 @@ pub struct CubeContacts {
     pub platform: bool,
 }
 
+/// What touches the cube right now, without allocating (read every control step).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CubeTouch {
+    /// Normal force (N) from each finger (the gripper's driving joint's finger first); 0 when
+    /// not touching. Robots with one finger report 0 for the second.
+    pub finger_forces: [f64; 2],
+    /// Normal force (N) from robot links other than the fingers.
+    pub other_robot_force: f64,
+    /// Touching the floor.
+    pub floor: bool,
+    /// Touching the platform.
+    pub platform: bool,
+}
+
+impl CubeTouch {
+    /// Whether any robot link touches the cube.
+    pub fn robot_touching(&self) -> bool {
+        self.finger_forces.iter().any(|&f| f > 0.0) || self.other_robot_force > 0.0
+    }
+}
+
+/// Everything that decides how a [`Simulation`] continues: bodies, colliders, joints, contact
+/// and broad-phase caches, motor commands and the clock. Restoring it with
+/// [`Simulation::restore`] continues bit-identically to the moment it was taken.
+#[derive(Clone)]
+pub struct SimSnapshot {
+    config: SimConfig,
+    islands: IslandManager,
+    broad_phase: BroadPhaseBvh,
+    narrow_phase: NarrowPhase,
+    bodies: RigidBodySet,
+    colliders: ColliderSet,
+    impulse_joints: ImpulseJointSet,
+    multibody_joints: MultibodyJointSet,
+    controls: Vec<JointControl>,
+    time: f64,
+    steps: u64,
+}
+
+impl std::fmt::Debug for SimSnapshot {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SimSnapshot")
+            .field("time", &self.time)
+            .field("steps", &self.steps)
+            .finish_non_exhaustive()
+    }
+}
+
 const STATIC_GROUP: Group = Group::GROUP_1;
 const CUBE_GROUP: Group = Group::GROUP_2;
 /// Links that cannot reach the floor or the platform (the base and the first link), so their
@@ -195,6 +245,10 @@ pub struct Simulation {
     gripper_joint: Option<usize>,
     /// The gripper's driving joint followed by the joints mimicking it (one per finger).
     finger_joints: Vec<usize>,
+    /// Child link of each finger joint, in the same order.
+    finger_links: Vec<usize>,
+    /// Every joint that moves (actuated and mimic), in joint order.
+    movable_joints: Vec<usize>,
     robot_colliders: Vec<(ColliderHandle, usize)>,
     cube: RigidBodyHandle,
     cube_collider: ColliderHandle,
@@ -351,6 +405,12 @@ impl Simulation {
             .map(|&j| model.joints()[j].child_link_index)
             .collect();
         let proximal = proximal_links(&model);
+        let movable_joints: Vec<usize> = model
+            .joints()
+            .iter()
+            .filter(|j| j.joint_type.is_movable())
+            .map(|j| j.index)
+            .collect();
 
         let mut link_bodies = vec![None; model.links().len()];
         let mut link_friction = vec![0.0; model.links().len()];
@@ -469,6 +529,8 @@ impl Simulation {
             controls,
             gripper_joint,
             finger_joints,
+            finger_links,
+            movable_joints,
             robot_colliders,
             cube,
             cube_collider,
@@ -571,6 +633,51 @@ impl Simulation {
         (0..self.model.num_dofs())
             .map(|d| self.read_joint(self.dof_joint(d)).velocity)
             .collect()
+    }
+
+    /// Writes the configuration `q` into `out` (one entry per actuated joint) without allocating.
+    pub fn joint_positions_into(&self, out: &mut [f64]) -> Result<()> {
+        ensure_len("joint position buffer", self.model.num_dofs(), out.len())?;
+        for (d, o) in out.iter_mut().enumerate() {
+            *o = self.read_joint(self.dof_joint(d)).position;
+        }
+        Ok(())
+    }
+
+    /// Every joint that moves (actuated and mimic joints, e.g. both Panda fingers), in joint
+    /// order: the joints [`Simulation::movable_joint_states_into`] reports.
+    pub fn movable_joints(&self) -> &[usize] {
+        &self.movable_joints
+    }
+
+    /// Positions and velocities of [`Simulation::movable_joints`], written without allocating.
+    pub fn movable_joint_states_into(
+        &self,
+        positions: &mut [f64],
+        velocities: &mut [f64],
+    ) -> Result<()> {
+        let n = self.movable_joints.len();
+        ensure_len("joint position buffer", n, positions.len())?;
+        ensure_len("joint velocity buffer", n, velocities.len())?;
+        for (i, &j) in self.movable_joints.iter().enumerate() {
+            let state = self.read_joint(j);
+            positions[i] = state.position;
+            velocities[i] = state.velocity;
+        }
+        Ok(())
+    }
+
+    /// Index into `q` of the gripper's driving joint, when the robot has a gripper.
+    pub fn gripper_dof(&self) -> Option<usize> {
+        self.gripper_joint.and_then(|j| self.model.joints()[j].dof)
+    }
+
+    /// The widest opening the fingers allow (m): the sum of the finger joints' upper limits.
+    pub fn gripper_max_width(&self) -> f64 {
+        self.finger_joints
+            .iter()
+            .map(|&j| self.model.joints()[j].upper)
+            .sum()
     }
 
     /// Teleports the robot to configuration `q` (one value per actuated joint, clamped into
@@ -996,6 +1103,144 @@ impl Simulation {
                 .multibody_joints
                 .attached_joints(self.cube)
                 .count()
+    }
+
+    /// What touches the cube, summarised without allocating (contacts with a positive impulse in
+    /// the last physics step).
+    pub fn cube_touch(&self) -> CubeTouch {
+        let mut touch = CubeTouch::default();
+        for pair in self
+            .world
+            .narrow_phase
+            .contact_pairs_with(self.cube_collider)
+        {
+            if !pair.has_any_active_contact() {
+                continue;
+            }
+            let other = if pair.collider1 == self.cube_collider {
+                pair.collider2
+            } else {
+                pair.collider1
+            };
+            if other == self.floor_collider {
+                touch.floor = true;
+            } else if other == self.platform_collider {
+                touch.platform = true;
+            } else if let Some(&(_, link)) = self.robot_colliders.iter().find(|(c, _)| *c == other)
+            {
+                let force = pair.total_impulse().length() as f64 / self.config.solver.dt;
+                match self.finger_links.iter().position(|&l| l == link) {
+                    Some(i) if i < 2 => touch.finger_forces[i] += force,
+                    _ => touch.other_robot_force += force,
+                }
+            }
+        }
+        touch
+    }
+
+    /// Changes the cube's edge length, mass and friction (domain randomisation); its pose and
+    /// velocity are kept.
+    pub fn set_cube_properties(&mut self, size: f64, mass: f64, friction: f64) -> Result<()> {
+        for (field, value) in [("cube size", size), ("cube mass", mass)] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(Error::InvalidConfig {
+                    field: field.into(),
+                    reason: format!("must be finite and > 0, got {value}"),
+                });
+            }
+        }
+        if !(friction.is_finite() && friction >= 0.0) {
+            return Err(Error::InvalidConfig {
+                field: "cube friction".into(),
+                reason: format!("must be finite and >= 0, got {friction}"),
+            });
+        }
+        if let Some(collider) = self.world.colliders.get_mut(self.cube_collider) {
+            let half = (size / 2.0) as f32;
+            collider.set_shape(SharedShape::cuboid(half, half, half));
+            collider.set_mass(mass as f32);
+            collider.set_friction(friction as f32);
+        }
+        Ok(())
+    }
+
+    /// Edge length (m), mass (kg) and friction of the cube as simulated now.
+    pub fn cube_properties(&self) -> (f64, f64, f64) {
+        match self.world.colliders.get(self.cube_collider) {
+            Some(c) => {
+                let size = c
+                    .shape()
+                    .as_cuboid()
+                    .map(|b| 2.0 * b.half_extents.x as f64)
+                    .unwrap_or(f64::NAN);
+                (size, c.mass() as f64, c.friction() as f64)
+            }
+            None => (f64::NAN, f64::NAN, f64::NAN),
+        }
+    }
+
+    /// The largest linear (m/s) and angular (rad/s) speed of any body; NaN propagates, so a
+    /// blown-up world reports NaN.
+    pub fn max_body_speeds(&self) -> (f64, f64) {
+        let mut linear = 0.0f32;
+        let mut angular = 0.0f32;
+        for (_, rb) in self.world.bodies.iter() {
+            let v = rb.linvel().length();
+            let w = rb.angvel().length();
+            // `f32::max` drops NaN; keep it visible instead.
+            linear = if v.is_nan() || v > linear { v } else { linear };
+            angular = if w.is_nan() || w > angular {
+                w
+            } else {
+                angular
+            };
+            if linear.is_nan() || angular.is_nan() {
+                return (f64::NAN, f64::NAN);
+            }
+        }
+        (linear as f64, angular as f64)
+    }
+
+    /// Copies the whole dynamic state (see [`SimSnapshot`]).
+    pub fn snapshot(&self) -> SimSnapshot {
+        SimSnapshot {
+            config: self.config.clone(),
+            islands: self.world.islands.clone(),
+            broad_phase: self.world.broad_phase.clone(),
+            narrow_phase: self.world.narrow_phase.clone(),
+            bodies: self.world.bodies.clone(),
+            colliders: self.world.colliders.clone(),
+            impulse_joints: self.world.impulse_joints.clone(),
+            multibody_joints: self.world.multibody_joints.clone(),
+            controls: self.controls.clone(),
+            time: self.time,
+            steps: self.steps,
+        }
+    }
+
+    /// Puts the world back into the state `snapshot` recorded. The snapshot must come from a
+    /// simulation built from an equal configuration.
+    pub fn restore(&mut self, snapshot: &SimSnapshot) -> Result<()> {
+        if snapshot.config != self.config {
+            return Err(Error::SnapshotMismatch {
+                reason: "it was taken from a simulation with a different configuration".into(),
+            });
+        }
+        self.world.islands.clone_from(&snapshot.islands);
+        self.world.broad_phase.clone_from(&snapshot.broad_phase);
+        self.world.narrow_phase.clone_from(&snapshot.narrow_phase);
+        self.world.bodies.clone_from(&snapshot.bodies);
+        self.world.colliders.clone_from(&snapshot.colliders);
+        self.world
+            .impulse_joints
+            .clone_from(&snapshot.impulse_joints);
+        self.world
+            .multibody_joints
+            .clone_from(&snapshot.multibody_joints);
+        self.controls.clone_from(&snapshot.controls);
+        self.time = snapshot.time;
+        self.steps = snapshot.steps;
+        Ok(())
     }
 
     /// Whether every body's pose and velocity is finite.

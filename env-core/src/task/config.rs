@@ -1,0 +1,456 @@
+//! Validated configuration of the pick-and-place environment.
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::SimConfig;
+use crate::error::{Error, Result};
+
+/// How actions drive the robot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ControlMode {
+    /// 4-D: TCP displacement (x, y, z) through inverse kinematics with the hand pointing down,
+    /// plus the gripper command.
+    #[default]
+    Ee,
+    /// 8-D: joint target displacements of the seven arm joints, plus the gripper command.
+    Joints,
+}
+
+impl ControlMode {
+    /// The name used in configs and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ControlMode::Ee => "ee",
+            ControlMode::Joints => "joints",
+        }
+    }
+}
+
+/// Which reward the environment returns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RewardType {
+    /// -1 until the cube is within the success threshold of the goal, then 0.
+    #[default]
+    Sparse,
+    /// Staged shaping: reach, grasp, lift, carry, place (see [`crate::task::reward`]).
+    Dense,
+}
+
+impl RewardType {
+    /// The name used in configs and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RewardType::Sparse => "sparse",
+            RewardType::Dense => "dense",
+        }
+    }
+}
+
+/// An axis-aligned rectangle in the horizontal plane (m, world frame).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Region {
+    /// Smallest x and y.
+    pub low: [f64; 2],
+    /// Largest x and y.
+    pub high: [f64; 2],
+}
+
+impl Region {
+    /// The point at fractions `u` (each in [0, 1]) across the region.
+    pub fn lerp(&self, u: [f64; 2]) -> [f64; 2] {
+        [
+            self.low[0] + (self.high[0] - self.low[0]) * u[0],
+            self.low[1] + (self.high[1] - self.low[1]) * u[1],
+        ]
+    }
+
+    fn validate(&self, field: &str) -> Result<()> {
+        for i in 0..2 {
+            if !(self.low[i].is_finite() && self.high[i].is_finite()) {
+                return Err(invalid(field, format!("must be finite, got {self:?}")));
+            }
+            if self.low[i] > self.high[i] {
+                return Err(invalid(
+                    field,
+                    format!("is inverted: low {:?} > high {:?}", self.low, self.high),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A closed interval `[low, high]` for a randomised quantity.
+pub type Range = [f64; 2];
+
+/// Domain randomisation, drawn at every reset. Everything is off by default; the random draws
+/// happen either way, so switching one on does not change the other quantities of a seed.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Randomization {
+    /// Cube edge length range (m).
+    pub cube_size: Option<Range>,
+    /// Cube mass range (kg).
+    pub cube_mass: Option<Range>,
+    /// Cube friction coefficient range.
+    pub cube_friction: Option<Range>,
+    /// Uniform noise (+- rad) added to each arm joint of the start configuration.
+    pub joint_noise: f64,
+}
+
+/// Thresholds that decide the task's predicates (`is_grasped`, `is_placed`, ...).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TaskThresholds {
+    /// Normal force (N) each finger must press the cube with for it to count as grasped.
+    pub grasp_force: f64,
+    /// The cube is at rest below this speed (m/s)...
+    pub rest_linear_speed: f64,
+    /// ...and this angular speed (rad/s).
+    pub rest_angular_speed: f64,
+    /// A body faster than this (m/s) means the physics blew up: the episode is truncated.
+    pub unstable_linear_speed: f64,
+    /// A body spinning faster than this (rad/s) means the physics blew up.
+    pub unstable_angular_speed: f64,
+}
+
+impl Default for TaskThresholds {
+    fn default() -> Self {
+        Self {
+            grasp_force: 1.0,
+            rest_linear_speed: 0.02,
+            rest_angular_speed: 0.3,
+            unstable_linear_speed: 20.0,
+            unstable_angular_speed: 200.0,
+        }
+    }
+}
+
+/// Everything that defines a pick-and-place environment. Defaults: the classic tutorial's
+/// scene, 25 Hz control, 50 steps, sparse reward, end-effector control.
+///
+/// The physics step `sim.solver.dt` and `control_frequency` fix the number of physics steps
+/// per action; `sim.solver.substeps` is derived from them (whatever it is set to).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EnvConfig {
+    /// How actions drive the robot.
+    pub control_mode: ControlMode,
+    /// Sparse or dense reward.
+    pub reward_type: RewardType,
+    /// Steps after which an episode is truncated.
+    pub max_episode_steps: u32,
+    /// Actions per simulated second (Hz); `1 / (control_frequency * sim.solver.dt)` must be a
+    /// whole number of physics steps.
+    pub control_frequency: f64,
+    /// The cube counts as at the goal within this distance (m).
+    pub success_threshold: f64,
+    /// End the episode (`terminated`) on the first success instead of running to the time limit.
+    pub terminate_on_success: bool,
+    /// Where the cube's centre starts (on the floor).
+    pub pick_region: Region,
+    /// Range of the cube's start yaw (rad).
+    pub cube_yaw_range: Range,
+    /// Where goals are drawn, on the platform's top.
+    pub goal_region: Region,
+    /// Probability that the goal is in the air above the platform instead of on it.
+    pub goal_air_probability: f64,
+    /// Height range (m) of an air goal above the cube's resting height on the platform.
+    pub goal_air_height: Range,
+    /// TCP displacement (m) per step at action 1.0 (`ee` control).
+    pub ee_step: f64,
+    /// Joint target displacement (rad) per step at action 1.0 (`joints` control).
+    pub joint_step: f64,
+    /// Box (m, world frame) that `ee` targets are clipped into: `[low, high]` per axis as
+    /// `[[xlow, ylow, zlow], [xhigh, yhigh, zhigh]]`.
+    pub ee_workspace: [[f64; 3]; 2],
+    /// Domain randomisation (off by default).
+    pub randomization: Randomization,
+    /// Thresholds of the task predicates and of the blow-up detector.
+    pub thresholds: TaskThresholds,
+    /// The scene and the physics.
+    pub sim: SimConfig,
+}
+
+impl Default for EnvConfig {
+    fn default() -> Self {
+        Self {
+            control_mode: ControlMode::Ee,
+            reward_type: RewardType::Sparse,
+            max_episode_steps: 50,
+            control_frequency: 25.0,
+            success_threshold: 0.05,
+            terminate_on_success: false,
+            pick_region: Region {
+                low: [0.4, -0.2],
+                high: [0.6, 0.0],
+            },
+            cube_yaw_range: [-0.25, 0.25],
+            goal_region: Region {
+                low: [0.42, 0.22],
+                high: [0.58, 0.38],
+            },
+            goal_air_probability: 0.0,
+            goal_air_height: [0.05, 0.2],
+            ee_step: 0.05,
+            joint_step: 0.05,
+            ee_workspace: [[0.15, -0.6, 0.0], [0.85, 0.6, 0.6]],
+            randomization: Randomization::default(),
+            thresholds: TaskThresholds::default(),
+            sim: SimConfig::default(),
+        }
+    }
+}
+
+fn invalid(field: &str, reason: impl Into<String>) -> Error {
+    Error::InvalidConfig {
+        field: field.to_owned(),
+        reason: reason.into(),
+    }
+}
+
+fn positive(field: &str, value: f64) -> Result<()> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(
+            field,
+            format!("must be finite and > 0, got {value}"),
+        ))
+    }
+}
+
+fn range(field: &str, r: Range, min: f64) -> Result<()> {
+    if !(r[0].is_finite() && r[1].is_finite()) {
+        return Err(invalid(field, format!("must be finite, got {r:?}")));
+    }
+    if r[0] > r[1] {
+        return Err(invalid(field, format!("is inverted: {r:?}")));
+    }
+    if r[0] < min {
+        return Err(invalid(field, format!("must be >= {min}, got {r:?}")));
+    }
+    Ok(())
+}
+
+impl EnvConfig {
+    /// Parses a JSON document (unknown keys are errors) and validates it.
+    pub fn from_json(text: &str) -> Result<Self> {
+        let config: Self =
+            serde_json::from_str(text).map_err(|e| invalid("<json>", e.to_string()))?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Physics steps per action, or an error naming the offending fields.
+    pub fn substeps(&self) -> Result<u32> {
+        positive("control_frequency", self.control_frequency)?;
+        positive("sim.solver.dt", self.sim.solver.dt)?;
+        let ratio = 1.0 / (self.control_frequency * self.sim.solver.dt);
+        let rounded = ratio.round();
+        if rounded < 1.0 || (ratio - rounded).abs() > 1e-6 * rounded {
+            return Err(invalid(
+                "control_frequency",
+                format!(
+                    "{} Hz is not a whole number of physics steps of sim.solver.dt = {} s",
+                    self.control_frequency, self.sim.solver.dt
+                ),
+            ));
+        }
+        Ok(rounded as u32)
+    }
+
+    /// The scene configuration the environment's simulation is built from: `sim` with the
+    /// derived substeps.
+    pub fn sim_config(&self) -> Result<SimConfig> {
+        let mut sim = self.sim.clone();
+        sim.solver.substeps = self.substeps()?;
+        Ok(sim)
+    }
+
+    /// Checks every value; the first problem is returned with its field name.
+    pub fn validate(&self) -> Result<()> {
+        self.sim_config()?.validate()?;
+        if self.max_episode_steps == 0 {
+            return Err(invalid("max_episode_steps", "must be >= 1, got 0"));
+        }
+        positive("success_threshold", self.success_threshold)?;
+        positive("ee_step", self.ee_step)?;
+        positive("joint_step", self.joint_step)?;
+        self.pick_region.validate("pick_region")?;
+        self.goal_region.validate("goal_region")?;
+        range("cube_yaw_range", self.cube_yaw_range, f64::NEG_INFINITY)?;
+        range("goal_air_height", self.goal_air_height, 0.0)?;
+        let p = self.goal_air_probability;
+        if !(0.0..=1.0).contains(&p) {
+            return Err(invalid(
+                "goal_air_probability",
+                format!("must be in [0, 1], got {p}"),
+            ));
+        }
+        let [low, high] = self.ee_workspace;
+        for i in 0..3 {
+            if !(low[i].is_finite() && high[i].is_finite()) || low[i] > high[i] {
+                return Err(invalid(
+                    "ee_workspace",
+                    format!(
+                        "must be finite with low <= high, got {:?}",
+                        self.ee_workspace
+                    ),
+                ));
+            }
+        }
+        let r = &self.randomization;
+        if let Some(s) = r.cube_size {
+            range("randomization.cube_size", s, 0.0)?;
+            if s[0] <= 0.0 || s[1] > 0.08 {
+                return Err(invalid(
+                    "randomization.cube_size",
+                    format!("must lie in (0, 0.08] m (the gripper's opening), got {s:?}"),
+                ));
+            }
+        }
+        if let Some(m) = r.cube_mass {
+            range("randomization.cube_mass", m, 0.0)?;
+            if m[0] <= 0.0 {
+                return Err(invalid(
+                    "randomization.cube_mass",
+                    format!("must be > 0, got {m:?}"),
+                ));
+            }
+        }
+        if let Some(f) = r.cube_friction {
+            range("randomization.cube_friction", f, 0.0)?;
+        }
+        if !(r.joint_noise.is_finite() && r.joint_noise >= 0.0) {
+            return Err(invalid(
+                "randomization.joint_noise",
+                format!("must be finite and >= 0, got {}", r.joint_noise),
+            ));
+        }
+        let t = &self.thresholds;
+        positive("thresholds.grasp_force", t.grasp_force)?;
+        positive("thresholds.rest_linear_speed", t.rest_linear_speed)?;
+        positive("thresholds.rest_angular_speed", t.rest_angular_speed)?;
+        positive("thresholds.unstable_linear_speed", t.unstable_linear_speed)?;
+        positive(
+            "thresholds.unstable_angular_speed",
+            t.unstable_angular_speed,
+        )?;
+
+        // The cube must start clear of the platform and goals must lie on it.
+        let pc = &self.sim.platform;
+        let half = [pc.size[0] / 2.0, pc.size[1] / 2.0];
+        let platform_low = [pc.top_center[0] - half[0], pc.top_center[1] - half[1]];
+        let platform_high = [pc.top_center[0] + half[0], pc.top_center[1] + half[1]];
+        let largest_cube = r.cube_size.map_or(self.sim.cube.size, |s| s[1]);
+        // Half the diagonal: a yawed cube reaches that far from its centre.
+        let reach = largest_cube * std::f64::consts::FRAC_1_SQRT_2;
+        let pick = &self.pick_region;
+        let overlaps = (0..2).all(|i| {
+            pick.low[i] - reach < platform_high[i] && pick.high[i] + reach > platform_low[i]
+        });
+        if overlaps {
+            return Err(invalid(
+                "pick_region",
+                format!(
+                    "a cube drawn in {pick:?} could overlap the platform spanning {platform_low:?}..{platform_high:?}"
+                ),
+            ));
+        }
+        let goal = &self.goal_region;
+        let inside =
+            (0..2).all(|i| goal.low[i] >= platform_low[i] && goal.high[i] <= platform_high[i]);
+        if !inside {
+            return Err(invalid(
+                "goal_region",
+                format!(
+                    "must lie on the platform's top {platform_low:?}..{platform_high:?}, got {goal:?}"
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_give_four_substeps() {
+        let config = EnvConfig::default();
+        config.validate().unwrap();
+        assert_eq!(config.substeps().unwrap(), 4);
+    }
+
+    #[test]
+    fn each_bad_value_names_its_field() {
+        type Mutation = Box<dyn Fn(&mut EnvConfig)>;
+        let cases: Vec<(&str, Mutation)> = vec![
+            (
+                "control_frequency",
+                Box::new(|c| c.control_frequency = 30.0),
+            ),
+            ("control_frequency", Box::new(|c| c.control_frequency = 0.0)),
+            ("max_episode_steps", Box::new(|c| c.max_episode_steps = 0)),
+            (
+                "success_threshold",
+                Box::new(|c| c.success_threshold = -0.1),
+            ),
+            ("pick_region", Box::new(|c| c.pick_region.low[0] = 0.9)),
+            ("pick_region", Box::new(|c| c.pick_region.high[1] = 0.3)),
+            ("goal_region", Box::new(|c| c.goal_region.high[0] = 2.0)),
+            (
+                "goal_air_probability",
+                Box::new(|c| c.goal_air_probability = 1.5),
+            ),
+            (
+                "goal_air_height",
+                Box::new(|c| c.goal_air_height = [0.2, 0.1]),
+            ),
+            (
+                "randomization.cube_mass",
+                Box::new(|c| c.randomization.cube_mass = Some([-1.0, 1.0])),
+            ),
+            (
+                "randomization.cube_size",
+                Box::new(|c| c.randomization.cube_size = Some([0.02, 0.1])),
+            ),
+            (
+                "ee_workspace",
+                Box::new(|c| c.ee_workspace[0][2] = f64::NAN),
+            ),
+            ("sim.solver.dt", Box::new(|c| c.sim.solver.dt = 0.0)),
+            ("cube.mass", Box::new(|c| c.sim.cube.mass = 0.0)),
+        ];
+        for (field, mutate) in cases {
+            let mut config = EnvConfig::default();
+            mutate(&mut config);
+            match config.validate() {
+                Err(Error::InvalidConfig { field: f, .. }) => assert_eq!(f, field),
+                other => panic!("{field}: expected InvalidConfig, got {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn json_round_trip_and_unknown_keys() {
+        let config = EnvConfig::from_json(
+            r#"{"control_mode": "joints", "reward_type": "dense", "sim": {"cube": {"mass": 0.2}}}"#,
+        )
+        .unwrap();
+        assert_eq!(config.control_mode, ControlMode::Joints);
+        assert_eq!(config.reward_type, RewardType::Dense);
+        assert_eq!(config.sim.cube.mass, 0.2);
+        let text = serde_json::to_string(&config).unwrap();
+        assert_eq!(EnvConfig::from_json(&text).unwrap(), config);
+        let err = EnvConfig::from_json(r#"{"episode_length": 10}"#).unwrap_err();
+        assert!(err.to_string().contains("episode_length"), "{err}");
+        let err = EnvConfig::from_json(r#"{"control_mode": "torque"}"#).unwrap_err();
+        assert!(err.to_string().contains("torque"), "{err}");
+    }
+}

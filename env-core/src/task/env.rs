@@ -1,0 +1,648 @@
+//! [`PickAndPlaceEnv`]: one environment instance (reset, step, snapshot).
+
+use nalgebra::{Rotation3, UnitQuaternion, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ensure_len, Error, Result};
+use crate::kinematics::IkOptions;
+use crate::physics::{SimSnapshot, Simulation};
+use crate::task::config::{ControlMode, EnvConfig};
+use crate::task::observation::ObservationLayout;
+use crate::task::reward::{
+    closeness, RewardContext, RewardFunction, RewardTerms, GRASP_WEIGHT, LIFT_WEIGHT, REACH_WEIGHT,
+};
+
+/// Overrides for one reset (Gymnasium's `options`); anything left `None` is drawn at random.
+/// The random draws happen either way, so an override does not shift the rest of the episode's
+/// randomness.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ResetOptions {
+    /// Start position of the cube's centre (m).
+    pub cube_position: Option<[f64; 3]>,
+    /// Start yaw of the cube (rad).
+    pub cube_yaw: Option<f64>,
+    /// Goal position for the cube's centre (m).
+    pub goal: Option<[f64; 3]>,
+    /// Start configuration of the robot (one value per actuated joint).
+    pub joint_positions: Option<Vec<f64>>,
+}
+
+impl ResetOptions {
+    fn validate(&self, num_dofs: usize) -> Result<()> {
+        let check = |what: &str, values: &[f64]| crate::error::ensure_all_finite(what, values);
+        if let Some(p) = &self.cube_position {
+            check("options.cube_position", p)?;
+        }
+        if let Some(y) = self.cube_yaw {
+            check("options.cube_yaw", &[y])?;
+        }
+        if let Some(g) = &self.goal {
+            check("options.goal", g)?;
+        }
+        if let Some(q) = &self.joint_positions {
+            ensure_len("options.joint_positions", num_dofs, q.len())?;
+            check("options.joint_positions", q)?;
+        }
+        Ok(())
+    }
+}
+
+/// What a step or reset reports besides the observation (Gymnasium's `info`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StepInfo {
+    /// The cube is within the success threshold of the goal.
+    pub is_success: bool,
+    /// Both fingers squeeze the cube with at least the grasp force.
+    pub is_grasped: bool,
+    /// Grasped and touching neither the floor nor the platform.
+    pub is_lifted: bool,
+    /// Released, at rest, on the platform and within the threshold.
+    pub is_placed: bool,
+    /// The physics blew up in this step (non-finite state or runaway speeds): the episode is
+    /// truncated and the observation is the last valid one.
+    pub physics_unstable: bool,
+    /// Distance from the cube to the goal (m).
+    pub goal_distance: f64,
+    /// Goal-free inputs of the reward (pass them back to `compute_reward`).
+    pub context: RewardContext,
+    /// The dense reward's weighted terms (zero for the sparse reward).
+    pub terms: RewardTerms,
+    /// Position error (m) the inverse kinematics left on the TCP target (`ee` control).
+    pub ik_position_error: f64,
+    /// Steps taken in this episode.
+    pub elapsed_steps: u32,
+}
+
+/// The outcome of one step.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Transition {
+    /// The reward.
+    pub reward: f32,
+    /// The episode ended by reaching the goal (only with `terminate_on_success`).
+    pub terminated: bool,
+    /// The episode was cut: time limit, or the physics blew up.
+    pub truncated: bool,
+    /// Everything else.
+    pub info: StepInfo,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Status {
+    NeverReset,
+    Running,
+    /// The physics blew up; only a reset helps.
+    Unstable,
+}
+
+/// Everything [`PickAndPlaceEnv::restore`] needs to continue bit-identically.
+#[derive(Debug, Clone)]
+pub struct EnvSnapshot {
+    sim: SimSnapshot,
+    rng: ChaCha8Rng,
+    seeded: bool,
+    goal: Vector3<f64>,
+    elapsed: u32,
+    status: Status,
+    observation: Vec<f32>,
+    info: StepInfo,
+}
+
+/// Franka Panda pick-and-place: put the cube on the goal on the platform (or hold it at an air
+/// goal).
+///
+/// - Observation: a flat `f32` vector laid out as in [`crate::task::observation`], which is also
+///   the goal dict (`achieved_goal`, `desired_goal`, `observation`).
+/// - Action (`f32`, clipped to [-1, 1]; NaN/inf are errors): `ee`: 4-D TCP displacement (x, y,
+///   z) of `ee_step` metres at 1.0 solved by inverse kinematics with the hand pointing down,
+///   then the gripper; `joints`: one target displacement of `joint_step` rad per arm joint, then
+///   the gripper. Displacements are relative to the measured state, so the action's effect
+///   depends only on what the observation shows. The gripper command is absolute: -1 closes
+///   with the configured force (a friction grasp), +1 opens fully, values between ask for a
+///   proportional opening.
+/// - Episode: cube on the floor at a random pose in `pick_region`; goal on the platform (or, with
+///   `goal_air_probability`, above it). Truncated after `max_episode_steps`; terminated on success
+///   only with `terminate_on_success`.
+pub struct PickAndPlaceEnv {
+    config: EnvConfig,
+    index: u64,
+    sim: Simulation,
+    initial: SimSnapshot,
+    layout: ObservationLayout,
+    reward_fn: RewardFunction,
+    rng: ChaCha8Rng,
+    seeded: bool,
+    status: Status,
+    elapsed: u32,
+    goal: Vector3<f64>,
+    ready: Vec<f64>,
+    /// The dofs an action drives besides the gripper, in order.
+    arm_dofs: Vec<usize>,
+    hand_down: UnitQuaternion<f64>,
+    ik_options: IkOptions,
+    observation: Vec<f32>,
+    info: StepInfo,
+    // Scratch buffers, so a step does not allocate.
+    q: Vec<f64>,
+    targets: Vec<f64>,
+    joint_positions: Vec<f64>,
+    joint_velocities: Vec<f64>,
+}
+
+impl std::fmt::Debug for PickAndPlaceEnv {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PickAndPlaceEnv")
+            .field("index", &self.index)
+            .field("control_mode", &self.config.control_mode)
+            .field("reward_type", &self.config.reward_type)
+            .field("elapsed_steps", &self.elapsed)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The random stream of environment `index` for `seed`: ChaCha8 keyed by the seed, one stream
+/// per index, so environment `i` draws the same numbers whatever else runs beside it.
+pub fn env_rng(seed: u64, index: u64) -> ChaCha8Rng {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(index);
+    rng
+}
+
+impl PickAndPlaceEnv {
+    /// Builds environment 0 (see [`PickAndPlaceEnv::with_index`]).
+    pub fn new(config: EnvConfig) -> Result<Self> {
+        Self::with_index(config, 0)
+    }
+
+    /// Builds the environment that draws from random stream `index` (environment `index` of a
+    /// vector environment behaves exactly like this one).
+    pub fn with_index(config: EnvConfig, index: u64) -> Result<Self> {
+        config.validate()?;
+        let sim = Simulation::new(config.sim_config()?)?;
+        let gripper_dof = sim.gripper_dof().ok_or_else(|| Error::InvalidConfig {
+            field: "sim.robot_urdf".into(),
+            reason: "the pick-and-place task needs a robot with a prismatic gripper joint".into(),
+        })?;
+        let num_dofs = sim.model().num_dofs();
+        let arm_dofs: Vec<usize> = (0..num_dofs).filter(|&d| d != gripper_dof).collect();
+        let ready = sim.joint_positions();
+        let hand_down = pointing_down(&sim.model().tcp_pose(&ready, sim.base_pose())?.rotation);
+        let layout = ObservationLayout::new(sim.movable_joints().len());
+        let initial = sim.snapshot();
+        let reward_fn = RewardFunction {
+            reward_type: config.reward_type,
+            success_threshold: config.success_threshold,
+        };
+        let num_joints = layout.num_joints();
+        let flat_dim = layout.flat_dim();
+        Ok(Self {
+            config,
+            index,
+            sim,
+            initial,
+            layout,
+            reward_fn,
+            rng: env_rng(0, index),
+            seeded: false,
+            status: Status::NeverReset,
+            elapsed: 0,
+            goal: Vector3::zeros(),
+            ready,
+            arm_dofs,
+            hand_down,
+            ik_options: IkOptions {
+                max_iterations: 30,
+                ..IkOptions::default()
+            },
+            observation: vec![0.0; flat_dim],
+            info: StepInfo::default(),
+            q: vec![0.0; num_dofs],
+            targets: vec![0.0; num_dofs],
+            joint_positions: vec![0.0; num_joints],
+            joint_velocities: vec![0.0; num_joints],
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &EnvConfig {
+        &self.config
+    }
+
+    /// Which random stream this environment draws from.
+    pub fn index(&self) -> u64 {
+        self.index
+    }
+
+    /// Where everything sits in the observation.
+    pub fn layout(&self) -> &ObservationLayout {
+        &self.layout
+    }
+
+    /// Length of an action: 4 for `ee`, one per actuated joint (8 for the Panda) for `joints`.
+    pub fn action_dim(&self) -> usize {
+        match self.config.control_mode {
+            ControlMode::Ee => 4,
+            ControlMode::Joints => self.arm_dofs.len() + 1,
+        }
+    }
+
+    /// Seconds of simulated time per step (the control period).
+    pub fn dt(&self) -> f64 {
+        self.sim.control_period()
+    }
+
+    /// The reward function ([`RewardFunction::compute_batch`] is `compute_reward`).
+    pub fn reward_function(&self) -> &RewardFunction {
+        &self.reward_fn
+    }
+
+    /// The current observation (flat layout).
+    pub fn observation(&self) -> &[f32] {
+        &self.observation
+    }
+
+    /// The info of the last reset or step.
+    pub fn info(&self) -> &StepInfo {
+        &self.info
+    }
+
+    /// The current goal for the cube's centre (m).
+    pub fn goal(&self) -> Vector3<f64> {
+        self.goal
+    }
+
+    /// Steps taken in the current episode.
+    pub fn elapsed_steps(&self) -> u32 {
+        self.elapsed
+    }
+
+    /// The orientation the `ee` control holds the TCP at.
+    pub fn hand_down(&self) -> UnitQuaternion<f64> {
+        self.hand_down
+    }
+
+    /// The simulation, for introspection (robot model, link states, kinematics).
+    pub fn simulation(&self) -> &Simulation {
+        &self.sim
+    }
+
+    /// The simulation, to drive the robot directly; the next [`PickAndPlaceEnv::step`] overrides
+    /// the joint commands and the observation is refreshed only by the next step or reset.
+    pub fn simulation_mut(&mut self) -> &mut Simulation {
+        &mut self.sim
+    }
+
+    /// Starts a new episode. `seed` re-seeds this environment's stream (from `(seed, index)`);
+    /// without it the stream continues (the first reset without any seed draws one from the
+    /// operating system).
+    pub fn reset(&mut self, seed: Option<u64>, options: &ResetOptions) -> Result<&StepInfo> {
+        options.validate(self.q.len())?;
+        match seed {
+            Some(seed) => {
+                self.rng = env_rng(seed, self.index);
+                self.seeded = true;
+            }
+            None if !self.seeded => {
+                self.rng = ChaCha8Rng::from_os_rng();
+                self.rng.set_stream(self.index);
+                self.seeded = true;
+            }
+            None => {}
+        }
+        self.reset_episode(options)?;
+        Ok(&self.info)
+    }
+
+    fn reset_episode(&mut self, options: &ResetOptions) -> Result<()> {
+        let config = &self.config;
+        let rng = &mut self.rng;
+        let mut draw = || rng.random::<f64>();
+        // Always the same draws in the same order: overrides and switched-off randomisation do
+        // not shift the others.
+        let cube_xy = config.pick_region.lerp([draw(), draw()]);
+        let yaw_u = draw();
+        let goal_xy = config.goal_region.lerp([draw(), draw()]);
+        let air_u = draw();
+        let air_height_u = draw();
+        let size_u = draw();
+        let mass_u = draw();
+        let friction_u = draw();
+        let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
+            range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
+        };
+        let r = &config.randomization;
+        let cube = &config.sim.cube;
+        let size = pick(r.cube_size, cube.size, size_u);
+        let mass = pick(r.cube_mass, cube.mass, mass_u);
+        let friction = pick(r.cube_friction, cube.friction, friction_u);
+        let mut q = self.ready.clone();
+        for &dof in &self.arm_dofs {
+            let u = draw();
+            q[dof] += r.joint_noise * (2.0 * u - 1.0);
+        }
+        let yaw = config.cube_yaw_range[0]
+            + (config.cube_yaw_range[1] - config.cube_yaw_range[0]) * yaw_u;
+        let platform_top = config.sim.platform.top_center[2];
+        let mut goal = Vector3::new(goal_xy[0], goal_xy[1], platform_top + size / 2.0);
+        if air_u < config.goal_air_probability {
+            let [low, high] = config.goal_air_height;
+            goal.z += low + (high - low) * air_height_u;
+        }
+
+        let cube_position = options.cube_position.map_or(
+            Vector3::new(cube_xy[0], cube_xy[1], size / 2.0),
+            Vector3::from,
+        );
+        let cube_yaw = options.cube_yaw.unwrap_or(yaw);
+        if let Some(g) = options.goal {
+            goal = Vector3::from(g);
+        }
+        if let Some(start) = &options.joint_positions {
+            q.copy_from_slice(start);
+        }
+
+        self.sim.restore(&self.initial)?;
+        if r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some() {
+            self.sim.set_cube_properties(size, mass, friction)?;
+        }
+        self.sim.set_joint_positions(&q)?;
+        let width = self.sim.gripper_width();
+        self.sim.set_gripper(width, None)?;
+        self.sim.set_cube_pose(
+            &cube_position,
+            &UnitQuaternion::from_axis_angle(&Vector3::z_axis(), cube_yaw),
+        )?;
+        self.goal = goal;
+        self.elapsed = 0;
+        self.status = Status::Running;
+        if !self.write_observation() {
+            // Only a start pose the user chose can do this (e.g. overlapping bodies).
+            self.status = Status::Unstable;
+            return Err(Error::InvalidConfig {
+                field: "options".into(),
+                reason: "the start state is not finite".into(),
+            });
+        }
+        self.info = self.evaluate(false, f64::NAN);
+        Ok(())
+    }
+
+    /// Checks an action: its length and that every value is finite.
+    pub fn check_action(&self, action: &[f32]) -> Result<()> {
+        ensure_len("action", self.action_dim(), action.len())?;
+        if let Some((i, &v)) = action.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(Error::NonFinite {
+                what: format!("action[{i}]"),
+                value: v as f64,
+            });
+        }
+        Ok(())
+    }
+
+    /// Whether [`PickAndPlaceEnv::step`] would refuse for lack of a reset.
+    pub fn needs_reset(&self) -> bool {
+        self.status != Status::Running
+    }
+
+    fn check_running(&self) -> Result<()> {
+        match self.status {
+            Status::Running => Ok(()),
+            Status::NeverReset => Err(Error::ResetNeeded {
+                reason: "step() called before the first reset()".into(),
+            }),
+            Status::Unstable => Err(Error::ResetNeeded {
+                reason: "the physics became unstable in the last step".into(),
+            }),
+        }
+    }
+
+    /// Applies `action` for one control period. Stepping past the time limit is allowed (the
+    /// episode stays truncated); after a physics blow-up or before the first reset it is an
+    /// error.
+    pub fn step(&mut self, action: &[f32]) -> Result<Transition> {
+        self.check_running()?;
+        self.check_action(action)?;
+        Ok(self.step_checked(action))
+    }
+
+    /// [`PickAndPlaceEnv::step`] for an action already checked by
+    /// [`PickAndPlaceEnv::check_action`] on a running environment.
+    pub(crate) fn step_checked(&mut self, action: &[f32]) -> Transition {
+        let ik_error = self.apply_action(action);
+        self.sim.step_control();
+        self.elapsed = self.elapsed.saturating_add(1);
+        let stable = self.is_stable() && self.write_observation();
+        if !stable {
+            self.status = Status::Unstable;
+        }
+        self.info = self.evaluate(!stable, ik_error);
+        let info = self.info;
+        Transition {
+            reward: self.reward_of(&info),
+            terminated: self.config.terminate_on_success && info.is_success,
+            truncated: !stable || self.elapsed >= self.config.max_episode_steps,
+            info,
+        }
+    }
+
+    fn reward_of(&self, info: &StepInfo) -> f32 {
+        let l = &self.layout;
+        self.reward_fn
+            .evaluate(
+                &self.observation[l.achieved_goal()],
+                &self.observation[l.desired_goal()],
+                &info.context,
+            )
+            .reward
+    }
+
+    /// Sets the joint commands for `action`; returns the IK's remaining position error.
+    fn apply_action(&mut self, action: &[f32]) -> f64 {
+        let a = |i: usize| action[i].clamp(-1.0, 1.0) as f64;
+        // The sim is finite here (a blow-up stops the episode), so these cannot fail.
+        let _ = self.sim.joint_positions_into(&mut self.q);
+        self.targets.copy_from_slice(&self.q);
+        let mut ik_error = 0.0;
+        let gripper_action = match self.config.control_mode {
+            ControlMode::Ee => {
+                let [low, high] = self.config.ee_workspace;
+                let tcp = self.sim.tcp_state().position;
+                let mut target = Vector3::zeros();
+                for i in 0..3 {
+                    target[i] = (tcp[i] + a(i) * self.config.ee_step).clamp(low[i], high[i]);
+                }
+                if let Ok(solution) = self.sim.model().inverse_kinematics(
+                    &target,
+                    Some(&self.hand_down),
+                    &self.q,
+                    self.sim.base_pose(),
+                    &self.ik_options,
+                ) {
+                    for &dof in &self.arm_dofs {
+                        self.targets[dof] = solution.q[dof];
+                    }
+                    ik_error = solution.position_error;
+                }
+                a(3)
+            }
+            ControlMode::Joints => {
+                for (i, &dof) in self.arm_dofs.iter().enumerate() {
+                    self.targets[dof] = self.q[dof] + a(i) * self.config.joint_step;
+                }
+                a(self.arm_dofs.len())
+            }
+        };
+        let _ = self.sim.set_position_targets(&self.targets);
+        let width = (gripper_action + 1.0) / 2.0 * self.sim.gripper_max_width();
+        let _ = self.sim.set_gripper(width, None);
+        ik_error
+    }
+
+    fn is_stable(&self) -> bool {
+        let t = &self.config.thresholds;
+        let (v, w) = self.sim.max_body_speeds();
+        // NaN fails both comparisons.
+        v <= t.unstable_linear_speed && w <= t.unstable_angular_speed && self.sim.is_finite()
+    }
+
+    /// Writes the observation; false (and the previous observation kept) if any value is not
+    /// finite.
+    fn write_observation(&mut self) -> bool {
+        let _ = self
+            .sim
+            .movable_joint_states_into(&mut self.joint_positions, &mut self.joint_velocities);
+        let tcp = self.sim.tcp_state();
+        let cube = self.sim.cube_state();
+        let width = self.sim.gripper_width();
+        let mut orientation = cube.orientation.coords;
+        if orientation.w < 0.0 {
+            orientation = -orientation;
+        }
+        let relative = cube.position - tcp.position;
+        let sources: [&[f64]; 12] = [
+            cube.position.as_slice(),
+            self.goal.as_slice(),
+            &self.joint_positions,
+            &self.joint_velocities,
+            tcp.position.as_slice(),
+            tcp.linear_velocity.as_slice(),
+            std::slice::from_ref(&width),
+            cube.position.as_slice(),
+            &[orientation.x, orientation.y, orientation.z, orientation.w],
+            cube.linear_velocity.as_slice(),
+            cube.angular_velocity.as_slice(),
+            relative.as_slice(),
+        ];
+        if !sources.iter().all(|s| s.iter().all(|v| v.is_finite())) {
+            return false;
+        }
+        for (o, v) in self
+            .observation
+            .iter_mut()
+            .zip(sources.iter().flat_map(|s| s.iter()))
+        {
+            *o = *v as f32;
+        }
+        true
+    }
+
+    /// The info for the current observation.
+    fn evaluate(&self, unstable: bool, ik_error: f64) -> StepInfo {
+        let t = &self.config.thresholds;
+        let touch = self.sim.cube_touch();
+        let l = &self.layout;
+        let obs = &self.observation;
+        let slot = |name: &str| l.slot(name).unwrap_or(0..0);
+        let cube_speed = norm(&obs[slot("cube_linear_velocity")]);
+        let cube_spin = norm(&obs[slot("cube_angular_velocity")]);
+        let reach_distance = norm(&obs[slot("cube_relative_position")]);
+        let cube_z = obs[l.achieved_goal()][2] as f64;
+        let (size, _, _) = self.sim.cube_properties();
+        let platform_height = self.config.sim.platform.top_center[2];
+        let is_grasped = touch.finger_forces.iter().all(|&f| f >= t.grasp_force);
+        let lift = if platform_height > 0.0 {
+            ((cube_z - size / 2.0) / platform_height).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let context = RewardContext {
+            reach: REACH_WEIGHT * closeness(reach_distance),
+            grasp: if is_grasped { GRASP_WEIGHT } else { 0.0 },
+            lift: LIFT_WEIGHT * lift as f32,
+            cube_released: !touch.robot_touching(),
+            cube_at_rest: cube_speed < t.rest_linear_speed && cube_spin < t.rest_angular_speed,
+            cube_on_platform: touch.platform,
+        };
+        let verdict =
+            self.reward_fn
+                .evaluate(&obs[l.achieved_goal()], &obs[l.desired_goal()], &context);
+        StepInfo {
+            is_success: verdict.is_success,
+            is_grasped,
+            is_lifted: is_grasped && !touch.floor && !touch.platform,
+            is_placed: verdict.is_placed,
+            physics_unstable: unstable,
+            goal_distance: verdict.distance,
+            context,
+            terms: verdict.terms,
+            ik_position_error: ik_error,
+            elapsed_steps: self.elapsed,
+        }
+    }
+
+    /// Copies the whole state: physics, random stream, goal, episode clock.
+    pub fn snapshot(&self) -> EnvSnapshot {
+        EnvSnapshot {
+            sim: self.sim.snapshot(),
+            rng: self.rng.clone(),
+            seeded: self.seeded,
+            goal: self.goal,
+            elapsed: self.elapsed,
+            status: self.status,
+            observation: self.observation.clone(),
+            info: self.info,
+        }
+    }
+
+    /// Returns to a state taken with [`PickAndPlaceEnv::snapshot`] (from this environment or one
+    /// with an equal configuration); stepping on continues bit-identically.
+    pub fn restore(&mut self, snapshot: &EnvSnapshot) -> Result<()> {
+        if snapshot.observation.len() != self.observation.len() {
+            return Err(Error::SnapshotMismatch {
+                reason: "its observation layout differs".into(),
+            });
+        }
+        self.sim.restore(&snapshot.sim)?;
+        self.rng.clone_from(&snapshot.rng);
+        self.seeded = snapshot.seeded;
+        self.goal = snapshot.goal;
+        self.elapsed = snapshot.elapsed;
+        self.status = snapshot.status;
+        self.observation.copy_from_slice(&snapshot.observation);
+        self.info = snapshot.info;
+        Ok(())
+    }
+}
+
+fn norm(v: &[f32]) -> f64 {
+    v.iter()
+        .map(|&x| (x as f64) * (x as f64))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// `orientation` turned so its z axis points straight down, keeping its heading.
+fn pointing_down(orientation: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+    let x = orientation * Vector3::x();
+    let heading = Vector3::new(x.x, x.y, 0.0);
+    let x = if heading.norm() > 1e-9 {
+        heading.normalize()
+    } else {
+        Vector3::x()
+    };
+    let z = -Vector3::z();
+    let y = z.cross(&x);
+    UnitQuaternion::from_rotation_matrix(&Rotation3::from_basis_unchecked(&[x, y, z]))
+}
