@@ -133,42 +133,54 @@ impl RobotModel {
         base: &Isometry3<f64>,
         options: &IkOptions,
     ) -> Result<IkSolution> {
+        let mut workspace = IkWorkspace::default();
+        let report = self.inverse_kinematics_in(
+            position,
+            orientation,
+            q_start,
+            base,
+            options,
+            &mut workspace,
+        )?;
+        Ok(IkSolution {
+            q: workspace.q,
+            position_error: report.position_error,
+            orientation_error: report.orientation_error,
+            iterations: report.iterations,
+            converged: report.converged,
+        })
+    }
+
+    /// [`RobotModel::inverse_kinematics`] without allocating once `workspace` has been used with
+    /// this model: the solution is left in [`IkWorkspace::q`].
+    pub fn inverse_kinematics_in(
+        &self,
+        position: &Vector3<f64>,
+        orientation: Option<&UnitQuaternion<f64>>,
+        q_start: &[f64],
+        base: &Isometry3<f64>,
+        options: &IkOptions,
+        workspace: &mut IkWorkspace,
+    ) -> Result<IkReport> {
         self.validate_configuration(q_start)?;
         crate::error::ensure_all_finite("IK target position", position.as_slice())?;
         if let Some(o) = orientation {
             crate::error::ensure_all_finite("IK target orientation", o.coords.as_slice())?;
         }
-        // Each chain joint drives one column: its own dof, or its master's for a mimic joint.
-        // Fixed joints fold into the transform in front of the next movable joint.
-        struct Column {
-            joint: usize,
-            dof: usize,
-            gain: f64,
-            prismatic: bool,
-            before: Isometry3<f64>,
-        }
-        let mut columns: Vec<Column> = Vec::new();
-        let mut fixed_tail = Isometry3::identity();
-        for j in self.chain_to(self.tcp().link) {
-            let joint = &self.joints()[j];
-            fixed_tail *= joint.origin;
-            if let Some((dof, gain)) = self.joint_driver(j) {
-                columns.push(Column {
-                    joint: j,
-                    dof,
-                    gain,
-                    prismatic: joint.joint_type == JointType::Prismatic,
-                    before: fixed_tail,
-                });
-                fixed_tail = Isometry3::identity();
-            }
-        }
-
-        let mut q = q_start.to_vec();
-        self.clamp_configuration(&mut q);
-        let mut jacobian: Vec<Vector6<f64>> = vec![Vector6::zeros(); columns.len()];
-        let mut axes: Vec<(Vector3<f64>, Vector3<f64>)> = vec![Default::default(); columns.len()];
-        let mut step = vec![0.0; q.len()];
+        workspace.prepare(self);
+        let IkWorkspace {
+            columns,
+            fixed_tail,
+            jacobian,
+            axes,
+            step,
+            q,
+            ..
+        } = workspace;
+        let fixed_tail = *fixed_tail;
+        q.clear();
+        q.extend_from_slice(q_start);
+        self.clamp_configuration(q);
         let lambda2 = options.damping * options.damping;
         let mut iterations = 0;
         loop {
@@ -178,7 +190,7 @@ impl RobotModel {
                 pose *= column.before;
                 let joint = &self.joints()[column.joint];
                 *axis = (pose.rotation * joint.axis, pose.translation.vector);
-                pose *= self.joint_motion(column.joint, self.joint_position(column.joint, &q));
+                pose *= self.joint_motion(column.joint, self.joint_position(column.joint, q));
             }
             let tcp = pose * fixed_tail * self.tcp().offset;
             let p = tcp.translation.vector;
@@ -189,50 +201,53 @@ impl RobotModel {
             let (pe, oe) = (position_error.norm(), orientation_error.norm());
             let converged = pe < options.position_tolerance
                 && (orientation.is_none() || oe < options.orientation_tolerance);
+            let report = IkReport {
+                position_error: pe,
+                orientation_error: oe,
+                iterations,
+                converged,
+            };
             if converged || iterations >= options.max_iterations {
-                return Ok(IkSolution {
-                    q,
-                    position_error: pe,
-                    orientation_error: oe,
-                    iterations,
-                    converged,
-                });
+                return Ok(report);
             }
             iterations += 1;
 
             // Damped least squares: dq = J^T (J J^T + lambda^2 I)^-1 e. Position-only solves
             // leave the angular rows at zero, so their part of the solution is zero too.
             let mut jjt = Matrix6::identity() * lambda2;
-            for ((column, &(axis, origin)), col) in columns.iter().zip(&axes).zip(&mut jacobian) {
+            for ((column, &(axis, origin)), col) in
+                columns.iter().zip(axes.iter()).zip(jacobian.iter_mut())
+            {
                 let (linear, angular) = if column.prismatic {
                     (axis, Vector3::zeros())
                 } else {
                     (axis.cross(&(p - origin)), axis)
                 };
+                // A reused workspace may hold angular rows of an earlier oriented solve.
+                let angular = if orientation.is_some() {
+                    angular * column.gain
+                } else {
+                    Vector3::zeros()
+                };
                 col.fixed_rows_mut::<3>(0)
                     .copy_from(&(linear * column.gain));
-                if orientation.is_some() {
-                    col.fixed_rows_mut::<3>(3)
-                        .copy_from(&(angular * column.gain));
-                }
+                col.fixed_rows_mut::<3>(3).copy_from(&angular);
                 jjt += *col * col.transpose();
             }
             let mut error = Vector6::zeros();
             error.fixed_rows_mut::<3>(0).copy_from(&position_error);
             error.fixed_rows_mut::<3>(3).copy_from(&orientation_error);
             let Some(cholesky) = jjt.cholesky() else {
-                return Ok(IkSolution {
-                    q,
-                    position_error: pe,
-                    orientation_error: oe,
-                    iterations,
+                return Ok(IkReport {
                     converged: false,
+                    ..report
                 });
             };
             let y = cholesky.solve(&error);
             // Columns of one dof (a joint and its mimics) add up.
-            step.fill(0.0);
-            for (column, col) in columns.iter().zip(&jacobian) {
+            step.clear();
+            step.resize(q.len(), 0.0);
+            for (column, col) in columns.iter().zip(jacobian.iter()) {
                 step[column.dof] += col.dot(&y);
             }
             let largest = step.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -241,12 +256,84 @@ impl RobotModel {
             } else {
                 1.0
             };
-            for (value, dq) in q.iter_mut().zip(&step) {
+            for (value, dq) in q.iter_mut().zip(step.iter()) {
                 *value += dq * scale;
             }
-            self.clamp_configuration(&mut q);
+            self.clamp_configuration(q);
         }
     }
+}
+
+/// One movable joint on the chain to the TCP: a column of the Jacobian.
+#[derive(Debug, Clone)]
+struct Column {
+    joint: usize,
+    dof: usize,
+    gain: f64,
+    prismatic: bool,
+    /// Fixed transforms between the previous movable joint and this one.
+    before: Isometry3<f64>,
+}
+
+/// Scratch memory of the IK solver, reusable across solves of one robot model so repeated
+/// solves (one per control step) do not allocate.
+#[derive(Debug, Clone, Default)]
+pub struct IkWorkspace {
+    /// The TCP link and joint count the columns were built for.
+    built_for: Option<(usize, usize)>,
+    columns: Vec<Column>,
+    fixed_tail: Isometry3<f64>,
+    jacobian: Vec<Vector6<f64>>,
+    axes: Vec<(Vector3<f64>, Vector3<f64>)>,
+    step: Vec<f64>,
+    /// The configuration of the last solve.
+    pub q: Vec<f64>,
+}
+
+impl IkWorkspace {
+    fn prepare(&mut self, model: &RobotModel) {
+        let key = (model.tcp().link, model.joints().len());
+        if self.built_for == Some(key) {
+            return;
+        }
+        // Each chain joint drives one column: its own dof, or its master's for a mimic joint.
+        // Fixed joints fold into the transform in front of the next movable joint.
+        self.columns.clear();
+        let mut fixed_tail = Isometry3::identity();
+        for j in model.chain_to(model.tcp().link) {
+            let joint = &model.joints()[j];
+            fixed_tail *= joint.origin;
+            if let Some((dof, gain)) = model.joint_driver(j) {
+                self.columns.push(Column {
+                    joint: j,
+                    dof,
+                    gain,
+                    prismatic: joint.joint_type == JointType::Prismatic,
+                    before: fixed_tail,
+                });
+                fixed_tail = Isometry3::identity();
+            }
+        }
+        self.fixed_tail = fixed_tail;
+        self.jacobian = vec![Vector6::zeros(); self.columns.len()];
+        self.axes = vec![Default::default(); self.columns.len()];
+        self.step = Vec::with_capacity(model.num_dofs());
+        self.q = Vec::with_capacity(model.num_dofs());
+        self.built_for = Some(key);
+    }
+}
+
+/// The outcome of [`RobotModel::inverse_kinematics_in`] (the configuration is in the workspace).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IkReport {
+    /// Remaining TCP position error (m).
+    pub position_error: f64,
+    /// Remaining TCP orientation error (rad); 0 for position-only solves.
+    pub orientation_error: f64,
+    /// Steps taken.
+    pub iterations: usize,
+    /// Whether both errors fell below their tolerances.
+    pub converged: bool,
 }
 
 #[cfg(test)]

@@ -191,6 +191,7 @@ pub struct SimSnapshot {
     impulse_joints: ImpulseJointSet,
     multibody_joints: MultibodyJointSet,
     controls: Vec<JointControl>,
+    torques_applied: bool,
     time: f64,
     steps: u64,
 }
@@ -256,6 +257,8 @@ pub struct Simulation {
     platform_collider: ColliderHandle,
     time: f64,
     steps: u64,
+    /// Whether the last step applied joint torques as body forces (they must be cleared).
+    torques_applied: bool,
 }
 
 impl std::fmt::Debug for Simulation {
@@ -538,6 +541,7 @@ impl Simulation {
             platform_collider,
             time: 0.0,
             steps: 0,
+            torques_applied: false,
         };
         let q0 = match &sim.config.initial_configuration {
             Some(q) => q.clone(),
@@ -890,6 +894,16 @@ impl Simulation {
     /// Joint torques of torque-controlled joints become equal and opposite body torques
     /// (forces for prismatic joints) on the joint's child and parent links.
     fn apply_joint_torques(&mut self) {
+        let torque_control = self
+            .controls
+            .iter()
+            .any(|c| matches!(c, JointControl::Torque(_)));
+        // Touching a body marks it modified for rapier, which costs work and allocations every
+        // step: leave the bodies alone unless torques are (or were last step) applied.
+        if !torque_control && !self.torques_applied {
+            return;
+        }
+        self.torques_applied = torque_control;
         for body in self.link_bodies.iter().flatten() {
             if let Some(rb) = self.world.bodies.get_mut(*body) {
                 rb.reset_forces(false);
@@ -1213,6 +1227,7 @@ impl Simulation {
             impulse_joints: self.world.impulse_joints.clone(),
             multibody_joints: self.world.multibody_joints.clone(),
             controls: self.controls.clone(),
+            torques_applied: self.torques_applied,
             time: self.time,
             steps: self.steps,
         }
@@ -1238,6 +1253,7 @@ impl Simulation {
             .multibody_joints
             .clone_from(&snapshot.multibody_joints);
         self.controls.clone_from(&snapshot.controls);
+        self.torques_applied = snapshot.torques_applied;
         self.time = snapshot.time;
         self.steps = snapshot.steps;
         Ok(())

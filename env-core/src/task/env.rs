@@ -6,7 +6,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ensure_len, Error, Result};
-use crate::kinematics::IkOptions;
+use crate::kinematics::{IkOptions, IkWorkspace};
 use crate::physics::{SimSnapshot, Simulation};
 use crate::task::config::{ControlMode, EnvConfig};
 use crate::task::observation::ObservationLayout;
@@ -142,6 +142,8 @@ pub struct PickAndPlaceEnv {
     arm_dofs: Vec<usize>,
     hand_down: UnitQuaternion<f64>,
     ik_options: IkOptions,
+    ik_workspace: IkWorkspace,
+    slots: SlotRanges,
     observation: Vec<f32>,
     info: StepInfo,
     // Scratch buffers, so a step does not allocate.
@@ -216,6 +218,8 @@ impl PickAndPlaceEnv {
                 max_iterations: 30,
                 ..IkOptions::default()
             },
+            ik_workspace: IkWorkspace::default(),
+            slots: SlotRanges::new(&layout),
             observation: vec![0.0; flat_dim],
             info: StepInfo::default(),
             q: vec![0.0; num_dofs],
@@ -473,17 +477,18 @@ impl PickAndPlaceEnv {
                 for i in 0..3 {
                     target[i] = (tcp[i] + a(i) * self.config.ee_step).clamp(low[i], high[i]);
                 }
-                if let Ok(solution) = self.sim.model().inverse_kinematics(
+                if let Ok(report) = self.sim.model().inverse_kinematics_in(
                     &target,
                     Some(&self.hand_down),
                     &self.q,
                     self.sim.base_pose(),
                     &self.ik_options,
+                    &mut self.ik_workspace,
                 ) {
                     for &dof in &self.arm_dofs {
-                        self.targets[dof] = solution.q[dof];
+                        self.targets[dof] = self.ik_workspace.q[dof];
                     }
-                    ik_error = solution.position_error;
+                    ik_error = report.position_error;
                 }
                 a(3)
             }
@@ -554,10 +559,9 @@ impl PickAndPlaceEnv {
         let touch = self.sim.cube_touch();
         let l = &self.layout;
         let obs = &self.observation;
-        let slot = |name: &str| l.slot(name).unwrap_or(0..0);
-        let cube_speed = norm(&obs[slot("cube_linear_velocity")]);
-        let cube_spin = norm(&obs[slot("cube_angular_velocity")]);
-        let reach_distance = norm(&obs[slot("cube_relative_position")]);
+        let cube_speed = norm(&obs[self.slots.cube_linear_velocity.clone()]);
+        let cube_spin = norm(&obs[self.slots.cube_angular_velocity.clone()]);
+        let reach_distance = norm(&obs[self.slots.cube_relative_position.clone()]);
         let cube_z = obs[l.achieved_goal()][2] as f64;
         let (size, _, _) = self.sim.cube_properties();
         let platform_height = self.config.sim.platform.top_center[2];
@@ -623,6 +627,25 @@ impl PickAndPlaceEnv {
         self.observation.copy_from_slice(&snapshot.observation);
         self.info = snapshot.info;
         Ok(())
+    }
+}
+
+/// The observation slots the task reads every step, looked up once.
+#[derive(Debug, Clone)]
+struct SlotRanges {
+    cube_linear_velocity: std::ops::Range<usize>,
+    cube_angular_velocity: std::ops::Range<usize>,
+    cube_relative_position: std::ops::Range<usize>,
+}
+
+impl SlotRanges {
+    fn new(layout: &ObservationLayout) -> Self {
+        let slot = |name: &str| layout.slot(name).unwrap_or(0..0);
+        Self {
+            cube_linear_velocity: slot("cube_linear_velocity"),
+            cube_angular_velocity: slot("cube_angular_velocity"),
+            cube_relative_position: slot("cube_relative_position"),
+        }
     }
 }
 

@@ -1,0 +1,248 @@
+//! Contract: rewards, success logic and `compute_reward`, and typed errors for bad input.
+
+use panda_rapier::task::{
+    ControlMode, EnvConfig, PickAndPlaceEnv, ResetOptions, RewardContext, RewardType,
+};
+use panda_rapier::vector::{AutoresetMode, VecEnv};
+use panda_rapier::Error;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn configs() -> Vec<EnvConfig> {
+    let mut out = Vec::new();
+    for control_mode in [ControlMode::Ee, ControlMode::Joints] {
+        for reward_type in [RewardType::Sparse, RewardType::Dense] {
+            out.push(EnvConfig {
+                control_mode,
+                reward_type,
+                goal_air_probability: 0.3,
+                ..EnvConfig::default()
+            });
+        }
+    }
+    out
+}
+
+#[test]
+fn compute_reward_reproduces_every_step_reward_and_relabels_goals() {
+    for config in configs() {
+        let mut env = PickAndPlaceEnv::new(config.clone()).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let (mut achieved, mut desired, mut contexts, mut rewards) =
+            (vec![], vec![], vec![], vec![]);
+        for episode in 0..3 {
+            env.reset(Some(episode), &ResetOptions::default()).unwrap();
+            for _ in 0..50 {
+                let action: Vec<f32> = (0..env.action_dim())
+                    .map(|_| rng.random_range(-1.0..=1.0))
+                    .collect();
+                let t = env.step(&action).unwrap();
+                let obs = env.observation();
+                let l = env.layout();
+                achieved.extend_from_slice(&obs[l.achieved_goal()]);
+                desired.extend_from_slice(&obs[l.desired_goal()]);
+                contexts.push(t.info.context);
+                rewards.push(t.reward);
+                // The success flag is the threshold test on the reported goals.
+                assert_eq!(
+                    t.info.is_success,
+                    t.info.goal_distance < config.success_threshold
+                );
+                if config.reward_type == RewardType::Sparse {
+                    assert_eq!(t.reward, if t.info.is_success { 0.0 } else { -1.0 });
+                } else {
+                    assert_eq!(t.reward, t.info.terms.total());
+                }
+            }
+        }
+        let f = env.reward_function();
+        let mut batch = vec![0.0; rewards.len()];
+        f.compute_batch(&achieved, &desired, &contexts, &mut batch)
+            .unwrap();
+        let same = batch
+            .iter()
+            .zip(&rewards)
+            .all(|(a, b)| a.to_bits() == b.to_bits());
+        assert!(
+            same,
+            "{:?}: compute_reward differs from the step reward",
+            config.reward_type
+        );
+
+        // Relabelled with the achieved goal (HER's "final"/"future" strategies): success.
+        let mut relabelled = vec![0.0; rewards.len()];
+        f.compute_batch(&achieved, &achieved, &contexts, &mut relabelled)
+            .unwrap();
+        match config.reward_type {
+            RewardType::Sparse => assert!(relabelled.iter().all(|&r| r == 0.0)),
+            RewardType::Dense => {
+                for (r, c) in relabelled.iter().zip(&contexts) {
+                    let floor = c.reach + c.grasp + c.lift + 2.0;
+                    assert!(*r >= floor, "{r} < {floor}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn goals_lie_on_or_above_the_platform_and_cubes_start_in_the_pick_region() {
+    let config = EnvConfig {
+        goal_air_probability: 0.5,
+        ..EnvConfig::default()
+    };
+    let mut env = PickAndPlaceEnv::new(config.clone()).unwrap();
+    let rest = config.sim.platform.top_center[2] + config.sim.cube.size / 2.0;
+    let mut in_air = 0;
+    for seed in 0..200 {
+        env.reset(Some(seed), &ResetOptions::default()).unwrap();
+        let goal = env.goal();
+        let g = &config.goal_region;
+        assert!(
+            goal.x >= g.low[0] && goal.x <= g.high[0] && goal.y >= g.low[1] && goal.y <= g.high[1]
+        );
+        assert!(goal.z >= rest - 1e-9 && goal.z <= rest + 0.2 + 1e-9);
+        if goal.z > rest + 1e-6 {
+            in_air += 1;
+            assert!(goal.z >= rest + 0.05 - 1e-9);
+        }
+        let cube = &env.observation()[..3];
+        let p = &config.pick_region;
+        assert!(cube[0] as f64 >= p.low[0] - 1e-6 && cube[0] as f64 <= p.high[0] + 1e-6);
+        assert!(cube[1] as f64 >= p.low[1] - 1e-6 && cube[1] as f64 <= p.high[1] + 1e-6);
+        assert!((cube[2] as f64 - config.sim.cube.size / 2.0).abs() < 1e-4);
+        let info = env.info();
+        assert!(!info.is_success && !info.is_grasped && !info.is_placed);
+    }
+    assert!(
+        (70..=130).contains(&in_air),
+        "{in_air} of 200 goals in the air at p = 0.5"
+    );
+}
+
+#[test]
+fn domain_randomisation_draws_within_its_ranges() {
+    let mut config = EnvConfig::default();
+    config.randomization.cube_size = Some([0.04, 0.06]);
+    config.randomization.cube_mass = Some([0.05, 0.3]);
+    config.randomization.cube_friction = Some([0.6, 1.2]);
+    config.randomization.joint_noise = 0.05;
+    let mut env = PickAndPlaceEnv::new(config).unwrap();
+    let mut sizes = Vec::new();
+    for seed in 0..20 {
+        env.reset(Some(seed), &ResetOptions::default()).unwrap();
+        let (size, mass, friction) = env.simulation().cube_properties();
+        assert!((0.04..=0.06).contains(&size) && (0.05..=0.3).contains(&mass));
+        assert!((0.6..=1.2).contains(&friction));
+        // The cube rests on the floor whatever its size.
+        assert!((env.observation()[2] as f64 - size / 2.0).abs() < 1e-4);
+        sizes.push(size);
+    }
+    sizes.sort_by(f64::total_cmp);
+    assert!(sizes[19] - sizes[0] > 0.01, "sizes barely vary: {sizes:?}");
+    // Off again: the default cube, same positions for the same seed.
+    let mut plain = PickAndPlaceEnv::new(EnvConfig::default()).unwrap();
+    plain.reset(Some(3), &ResetOptions::default()).unwrap();
+    assert!((plain.simulation().cube_properties().0 - 0.05).abs() < 1e-7);
+}
+
+#[test]
+fn bad_input_gets_typed_errors() {
+    let mut env = PickAndPlaceEnv::new(EnvConfig::default()).unwrap();
+    assert!(matches!(
+        env.step(&[0.0; 4]),
+        Err(Error::ResetNeeded { .. })
+    ));
+    env.reset(Some(0), &ResetOptions::default()).unwrap();
+    let before = env.observation().to_vec();
+    assert!(matches!(
+        env.step(&[0.0; 3]),
+        Err(Error::WrongLength {
+            expected: 4,
+            got: 3,
+            ..
+        })
+    ));
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        match env.step(&[0.0, bad, 0.0, 0.0]) {
+            Err(Error::NonFinite { what, .. }) => assert_eq!(what, "action[1]"),
+            other => panic!("expected NonFinite, got {other:?}"),
+        }
+    }
+    assert_eq!(
+        env.observation(),
+        &before[..],
+        "a refused step must not move the world"
+    );
+    // Huge values are clipped, not errors.
+    env.step(&[1e30, -1e30, 5.0, -7.0]).unwrap();
+    assert!(env.observation().iter().all(|v| v.is_finite()));
+
+    let bad_options = ResetOptions {
+        goal: Some([0.5, f64::NAN, 0.1]),
+        ..ResetOptions::default()
+    };
+    assert!(matches!(
+        env.reset(None, &bad_options),
+        Err(Error::NonFinite { .. })
+    ));
+    let short_q = ResetOptions {
+        joint_positions: Some(vec![0.0; 3]),
+        ..ResetOptions::default()
+    };
+    assert!(matches!(
+        env.reset(None, &short_q),
+        Err(Error::WrongLength { .. })
+    ));
+
+    let bad_config = EnvConfig {
+        success_threshold: 0.0,
+        ..EnvConfig::default()
+    };
+    assert!(matches!(
+        PickAndPlaceEnv::new(bad_config.clone()),
+        Err(Error::InvalidConfig { .. })
+    ));
+    assert!(matches!(
+        VecEnv::new(bad_config, 2, None, AutoresetMode::SameStep),
+        Err(Error::InvalidConfig { .. })
+    ));
+    assert!(matches!(
+        VecEnv::new(EnvConfig::default(), 0, None, AutoresetMode::SameStep),
+        Err(Error::InvalidConfig { .. })
+    ));
+    assert!(matches!(
+        VecEnv::new(EnvConfig::default(), 2, Some(0), AutoresetMode::SameStep),
+        Err(Error::InvalidConfig { .. })
+    ));
+
+    let mut vec_env =
+        VecEnv::new(EnvConfig::default(), 3, Some(2), AutoresetMode::SameStep).unwrap();
+    assert!(matches!(
+        vec_env.step(&[0.0; 12]),
+        Err(Error::ResetNeeded { .. })
+    ));
+    vec_env.reset(Some(0)).unwrap();
+    assert!(matches!(
+        vec_env.step(&[0.0; 11]),
+        Err(Error::WrongLength { expected: 12, .. })
+    ));
+    let mut actions = [0.0f32; 12];
+    actions[9] = f32::NAN;
+    let before = vec_env.observations().to_vec();
+    match vec_env.step(&actions) {
+        Err(Error::NonFinite { what, .. }) => assert!(what.contains("environment 2"), "{what}"),
+        other => panic!("expected NonFinite, got {other:?}"),
+    }
+    assert_eq!(
+        vec_env.observations(),
+        &before[..],
+        "no env may move when one action is bad"
+    );
+    let context = [RewardContext::default()];
+    let mut out = [0.0; 1];
+    assert!(vec_env
+        .reward_function()
+        .compute_batch(&[0.0; 3], &[0.0; 2], &context, &mut out)
+        .is_err());
+}
