@@ -246,3 +246,56 @@ fn bad_input_gets_typed_errors() {
         .compute_batch(&[0.0; 3], &[0.0; 2], &context, &mut out)
         .is_err());
 }
+
+#[test]
+fn a_blow_up_truncates_keeps_the_last_valid_observation_and_needs_a_reset() {
+    // A speed limit any brisk motion exceeds stands in for a real blow-up: the detector, the
+    // truncation and the recovery are what is tested.
+    let mut config = EnvConfig::default();
+    config.thresholds.unstable_linear_speed = 0.3;
+    let mut env = PickAndPlaceEnv::new(config.clone()).unwrap();
+    env.reset(Some(0), &ResetOptions::default()).unwrap();
+    let mut blown = None;
+    for step in 0..20 {
+        let before = env.observation().to_vec();
+        let t = env.step(&[1.0, 1.0, 1.0, 1.0]).unwrap();
+        if t.info.physics_unstable {
+            assert!(t.truncated, "a blow-up must truncate the episode");
+            assert_eq!(
+                env.observation(),
+                &before[..],
+                "the last valid observation is kept"
+            );
+            blown = Some(step);
+            break;
+        }
+        assert!(!t.truncated);
+    }
+    assert!(blown.is_some(), "the arm never exceeded 0.3 m/s");
+    assert!(matches!(
+        env.step(&[0.0; 4]),
+        Err(Error::ResetNeeded { .. })
+    ));
+    env.reset(None, &ResetOptions::default()).unwrap();
+    env.step(&[0.0; 4]).unwrap();
+
+    // In a vector env the blown-up lane is reset automatically and the others carry on.
+    let mut vec_env = VecEnv::new(config, 2, Some(1), AutoresetMode::SameStep).unwrap();
+    vec_env.reset(Some(0)).unwrap();
+    let mut resets = 0;
+    for _ in 0..20 {
+        vec_env
+            .step(&[1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0])
+            .unwrap();
+        assert!(vec_env.observations().iter().all(|v| v.is_finite()));
+        if vec_env.has_final_observation()[0] {
+            assert!(vec_env.info(0).unwrap().physics_unstable && vec_env.truncated()[0]);
+            resets += 1;
+        }
+        assert!(
+            !vec_env.has_final_observation()[1],
+            "the calm env must not be reset"
+        );
+    }
+    assert!(resets >= 1);
+}

@@ -13,10 +13,12 @@ fn scripted_ee(obs: &[f32], env: &PickAndPlaceEnv, phase: &mut usize) -> [f32; 4
     let cube = get("cube_position");
     let goal = obs[l.desired_goal()].to_vec();
     let width = get("gripper_width")[0];
+    // Full speed in free space, slower where the cube meets the fingers or the platform.
+    let speed = if matches!(*phase, 1 | 5) { 0.4 } else { 1.0 };
     let toward = |target: [f32; 3]| -> [f32; 3] {
         let mut a = [0.0; 3];
         for i in 0..3 {
-            a[i] = ((target[i] - tcp[i]) / 0.05).clamp(-1.0, 1.0);
+            a[i] = ((target[i] - tcp[i]) / 0.05).clamp(-speed, speed);
         }
         a
     };
@@ -41,8 +43,42 @@ fn scripted_ee(obs: &[f32], env: &PickAndPlaceEnv, phase: &mut usize) -> [f32; 4
     [a[0], a[1], a[2], grip]
 }
 
+/// Runs the controller for one seeded episode; returns the step at which the cube was placed.
+fn run_episode(env: &mut PickAndPlaceEnv, seed: u64, verbose: bool) -> (Option<u32>, [bool; 4]) {
+    env.reset(Some(seed), &ResetOptions::default()).unwrap();
+    let mut phase = 0;
+    let mut seen = [false; 4];
+    for step in 0..env.config().max_episode_steps {
+        let obs = env.observation().to_vec();
+        let action = scripted_ee(&obs, env, &mut phase);
+        let t = env.step(&action).unwrap();
+        let i = t.info;
+        if verbose {
+            let touch = env.simulation().cube_touch();
+            let cube = env.simulation().cube_state();
+            let tcp = env.simulation().tcp_state();
+            println!(
+                "{step:3} phase {phase} r {:7.3} d {:.3} grasp {} lift {} succ {} placed {} f {:.1?} yaw {:.2} rpy {:.2?} cube-tcp {:.3?} v {:.2}",
+                t.reward, i.goal_distance, i.is_grasped, i.is_lifted, i.is_success, i.is_placed,
+                touch.finger_forces, cube.orientation.euler_angles().2, cube.orientation.euler_angles(),
+                (cube.position - tcp.position).as_slice(), tcp.linear_velocity.norm()
+            );
+        }
+        for (s, flag) in seen
+            .iter_mut()
+            .zip([i.is_grasped, i.is_lifted, i.is_success, i.is_placed])
+        {
+            *s |= flag;
+        }
+        if i.is_placed {
+            return (Some(step + 1), seen);
+        }
+    }
+    (None, seen)
+}
+
 #[test]
-fn scripted_episode_grasps_lifts_and_places() {
+fn scripted_episodes_grasp_lift_and_place() {
     let config = EnvConfig {
         control_mode: ControlMode::Ee,
         reward_type: RewardType::Dense,
@@ -50,26 +86,22 @@ fn scripted_episode_grasps_lifts_and_places() {
         ..EnvConfig::default()
     };
     let mut env = PickAndPlaceEnv::new(config).unwrap();
-    env.reset(Some(3), &ResetOptions::default()).unwrap();
-    let mut phase = 0;
-    let mut seen = (false, false, false, false);
-    for step in 0..100 {
-        let obs = env.observation().to_vec();
-        let action = scripted_ee(&obs, &env, &mut phase);
-        let t = env.step(&action).unwrap();
-        let i = t.info;
-        println!(
-            "{step:3} phase {phase} r {:7.3} d {:.3} grasp {} lift {} succ {} placed {} width {:.4} ik {:.1e}",
-            t.reward, i.goal_distance, i.is_grasped, i.is_lifted, i.is_success, i.is_placed,
-            env.simulation().gripper_width(), i.ik_position_error
-        );
-        seen.0 |= i.is_grasped;
-        seen.1 |= i.is_lifted;
-        seen.2 |= i.is_success;
-        seen.3 |= i.is_placed;
-        if i.is_placed {
-            break;
+    let mut steps = Vec::new();
+    for seed in 0..20 {
+        let (placed, seen) = run_episode(&mut env, seed, false);
+        if placed.is_none() {
+            println!("seed {seed} failed: {seen:?}");
+            run_episode(&mut env, seed, true);
+        }
+        if let Some(n) = placed {
+            assert!(
+                seen.iter().all(|&s| s),
+                "seed {seed}: placed without {seen:?}"
+            );
+            steps.push(n);
         }
     }
-    assert!(seen.0 && seen.1 && seen.2 && seen.3, "{seen:?}");
+    steps.sort();
+    println!("placed {} of 20; steps to place: {steps:?}", steps.len());
+    assert!(steps.len() >= 19, "placed {} of 20", steps.len());
 }

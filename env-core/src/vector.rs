@@ -394,7 +394,8 @@ impl VecEnv {
         let a = self.action_dim;
         let action_row = |i: usize| actions.get(i * a..(i + 1) * a).unwrap_or(&[]);
         match &self.pool {
-            Some(pool) => {
+            // One environment gains nothing from a hop to the pool.
+            Some(pool) if self.lanes.len() > 1 => {
                 let lanes = &mut self.lanes;
                 let obs = &mut self.observations;
                 let fin = &mut self.final_observations;
@@ -407,7 +408,7 @@ impl VecEnv {
                         .for_each(|(i, ((lane, o), fo))| f(i, lane, o, fo, action_row(i)));
                 });
             }
-            None => {
+            _ => {
                 for (i, ((lane, o), fo)) in self
                     .lanes
                     .iter_mut()
