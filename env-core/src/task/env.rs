@@ -110,21 +110,51 @@ pub struct EnvSnapshot {
     info: StepInfo,
 }
 
-/// Franka Panda pick-and-place: put the cube on the goal on the platform (or hold it at an air
-/// goal).
+/// Franka Panda pick-and-place: pick the cube up from the floor and put it down on the goal on
+/// the platform (or hold it at a goal in the air).
 ///
-/// - Observation: a flat `f32` vector laid out as in [`crate::task::observation`], which is also
-///   the goal dict (`achieved_goal`, `desired_goal`, `observation`).
-/// - Action (`f32`, clipped to [-1, 1]; NaN/inf are errors): `ee`: 4-D TCP displacement (x, y,
-///   z) of `ee_step` metres at 1.0 solved by inverse kinematics with the hand pointing down,
-///   then the gripper; `joints`: one target displacement of `joint_step` rad per arm joint, then
-///   the gripper. Displacements are relative to the measured state, so the action's effect
-///   depends only on what the observation shows. The gripper command is absolute: -1 closes
-///   with the configured force (a friction grasp), +1 opens fully, values between ask for a
-///   proportional opening.
-/// - Episode: cube on the floor at a random pose in `pick_region`; goal on the platform (or, with
-///   `goal_air_probability`, above it). Truncated after `max_episode_steps`; terminated on success
-///   only with `terminate_on_success`.
+/// # Description
+/// The classic tutorial's scene: a Panda on a fixed base at the origin, a 0.3 m x 0.3 m x 0.1 m
+/// platform, a 5 cm, 0.1 kg cube. The robot is a rapier multibody with torque-limited joint
+/// motors; the cube is held by friction between the finger pads alone.
+///
+/// # Action space
+/// `f32`, every entry clipped to [-1, 1]; NaN or infinite values are an error.
+/// - `ee` (default, 4-D): TCP displacement (x, y, z) of `ee_step` (0.05 m) at 1.0, from the
+///   measured TCP position, clipped into `ee_workspace` and solved by inverse kinematics with
+///   the hand pointing straight down; then the gripper command.
+/// - `joints` (8-D for the Panda): target displacement of `joint_step` (0.05 rad) at 1.0 for each
+///   arm joint, from the measured joint positions; then the gripper command.
+///
+/// Joint targets are limited by the joints' velocity limits and ramped across the control period
+/// with a velocity feed-forward, so the arm moves at a steady speed. The gripper command is an
+/// absolute opening: -1 closes with `sim.motors.gripper_force` (a friction grasp), +1 opens fully
+/// (0.08 m), values between ask for a proportional opening.
+///
+/// # Observation space
+/// The goal dict (`observation`, `achieved_goal`, `desired_goal`) laid out in one flat `f32`
+/// vector; every slot is listed in [`crate::task::observation`].
+///
+/// # Rewards
+/// `sparse` (default): -1 until the cube is within `success_threshold` (0.05 m) of the goal, then
+/// 0. `dense`: staged terms, see [`crate::task::reward`]. Both are reproduced exactly by
+/// [`RewardFunction::compute_batch`] from the goals and the info's [`RewardContext`].
+///
+/// # Starting state
+/// The robot in its ready pose (plus `randomization.joint_noise`), the gripper open, the cube on
+/// the floor at a uniform position in `pick_region` with a uniform yaw in `cube_yaw_range`, the
+/// goal uniform in `goal_region` at the height of a cube resting on the platform, or with
+/// probability `goal_air_probability` up to `goal_air_height` above it.
+///
+/// # Episode end
+/// Truncated after `max_episode_steps` (50) steps, or at once if the physics blows up (a
+/// non-finite state or a body faster than the `thresholds`; the info says `physics_unstable` and
+/// the last valid observation is returned). Terminated on success only with
+/// `terminate_on_success`.
+///
+/// # Info
+/// [`StepInfo`]: `is_success`, `is_grasped`, `is_lifted`, `is_placed`, `physics_unstable`, the goal
+/// distance, the reward terms, the IK error and the step count.
 pub struct PickAndPlaceEnv {
     config: EnvConfig,
     index: u64,
