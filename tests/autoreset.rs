@@ -109,6 +109,7 @@ fn disabled_requires_an_explicit_reset() {
     );
     // Reset only env 1: env 0 still refuses.
     env.reset_masked(&[false, true], &[]).unwrap();
+    assert_eq!(env.was_reset(), &[false, true]);
     assert_eq!(
         row(&env, env.observations(), 0),
         before[..env.observation_dim()]

@@ -299,3 +299,19 @@ fn a_blow_up_truncates_keeps_the_last_valid_observation_and_needs_a_reset() {
     }
     assert!(resets >= 1);
 }
+
+#[test]
+fn control_frequency_sets_the_step_duration() {
+    for (hz, dt) in [(25.0, 0.04), (50.0, 0.02), (10.0, 0.1)] {
+        let config = EnvConfig {
+            control_frequency: hz,
+            ..EnvConfig::default()
+        };
+        let mut env = PickAndPlaceEnv::new(config).unwrap();
+        assert!((env.dt() - dt).abs() < 1e-12, "{hz} Hz: dt {}", env.dt());
+        env.reset(Some(0), &ResetOptions::default()).unwrap();
+        let t0 = env.simulation().time();
+        env.step(&[0.0; 4]).unwrap();
+        assert!((env.simulation().time() - t0 - dt).abs() < 1e-9);
+    }
+}

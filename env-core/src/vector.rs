@@ -298,6 +298,7 @@ impl VecEnv {
         let options = ResetOptions::default();
         self.for_each_lane(&[], |i, lane, obs, _final, _action| {
             if !mask[i] {
+                lane.was_reset = false;
                 return;
             }
             let seed = seeds.get(i).copied().flatten();
@@ -426,6 +427,7 @@ impl VecEnv {
     fn gather(&mut self, mask: Option<&[bool]>) -> Result<()> {
         let mut first_error = None;
         for (i, lane) in self.lanes.iter_mut().enumerate() {
+            self.was_reset[i] = lane.was_reset;
             if mask.is_some_and(|m| !m[i]) {
                 continue;
             }
@@ -433,7 +435,6 @@ impl VecEnv {
             self.terminated[i] = lane.transition.terminated;
             self.truncated[i] = lane.transition.truncated;
             self.has_final[i] = lane.has_final;
-            self.was_reset[i] = lane.was_reset;
             if let Some(e) = lane.error.take() {
                 first_error.get_or_insert(with_env_index(e, i));
             }

@@ -171,7 +171,9 @@ pub struct EnvConfig {
     pub randomization: Randomization,
     /// Thresholds of the task predicates and of the blow-up detector.
     pub thresholds: TaskThresholds,
-    /// The scene and the physics.
+    /// The scene and the physics. The environment places the cube itself at every reset, so
+    /// `sim.cube.position` is not used; `sim.solver.substeps` is derived from
+    /// `control_frequency`.
     pub sim: SimConfig,
 }
 
@@ -385,6 +387,20 @@ mod tests {
         let config = EnvConfig::default();
         config.validate().unwrap();
         assert_eq!(config.substeps().unwrap(), 4);
+    }
+
+    #[test]
+    fn control_frequency_sets_the_substeps() {
+        let mut config = EnvConfig {
+            control_frequency: 50.0,
+            ..EnvConfig::default()
+        };
+        assert_eq!(config.substeps().unwrap(), 2);
+        assert_eq!(config.sim_config().unwrap().solver.substeps, 2);
+        config.sim.solver.dt = 0.002;
+        assert_eq!(config.substeps().unwrap(), 10);
+        config.control_frequency = 20.0;
+        assert_eq!(config.substeps().unwrap(), 25);
     }
 
     #[test]
