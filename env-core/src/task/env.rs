@@ -121,8 +121,9 @@ pub struct EnvSnapshot {
 /// # Action space
 /// `f32`, every entry clipped to [-1, 1]; NaN or infinite values are an error.
 /// - `ee` (default, 4-D): TCP displacement (x, y, z) of `ee_step` (0.05 m) at 1.0, from the
-///   measured TCP position, clipped into `ee_workspace` and solved by inverse kinematics with
-///   the hand pointing straight down; then the gripper command.
+///   measured TCP position, clipped into `ee_workspace` and to at least `ee_surface_clearance`
+///   above the floor or platform under it, and solved by inverse kinematics with the hand
+///   pointing straight down; then the gripper command.
 /// - `joints` (8-D for the Panda): target displacement of `joint_step` (0.05 rad) at 1.0 for each
 ///   arm joint, from the measured joint positions; then the gripper command.
 ///
@@ -511,6 +512,9 @@ impl PickAndPlaceEnv {
                 for i in 0..3 {
                     target[i] = (tcp[i] + a(i) * self.config.ee_step).clamp(low[i], high[i]);
                 }
+                let lowest = self.config.surface_height(target.x, target.y)
+                    + self.config.ee_surface_clearance;
+                target.z = target.z.max(lowest);
                 if let Ok(report) = self.sim.model().inverse_kinematics_in(
                     &target,
                     Some(&self.hand_down),
