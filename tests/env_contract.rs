@@ -315,3 +315,18 @@ fn control_frequency_sets_the_step_duration() {
         assert!((env.simulation().time() - t0 - dt).abs() < 1e-9);
     }
 }
+
+#[test]
+fn refresh_follows_a_teleported_cube() {
+    let mut env = PickAndPlaceEnv::new(EnvConfig::default()).unwrap();
+    assert!(matches!(env.refresh(), Err(Error::ResetNeeded { .. })));
+    env.reset(Some(0), &ResetOptions::default()).unwrap();
+    let goal = env.goal();
+    env.simulation_mut()
+        .set_cube_pose(&goal, &panda_rapier::nalgebra::UnitQuaternion::identity())
+        .unwrap();
+    assert!(!env.info().is_success, "the info is stale until refreshed");
+    let info = *env.refresh().unwrap();
+    assert!(info.is_success && info.goal_distance < 1e-6);
+    assert_eq!(&env.observation()[..3], &env.observation()[3..6]);
+}

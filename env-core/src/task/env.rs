@@ -326,9 +326,29 @@ impl PickAndPlaceEnv {
     }
 
     /// The simulation, to drive the robot directly; the next [`PickAndPlaceEnv::step`] overrides
-    /// the joint commands and the observation is refreshed only by the next step or reset.
+    /// the joint commands. The observation follows at the next step or reset, or at once with
+    /// [`PickAndPlaceEnv::refresh`].
     pub fn simulation_mut(&mut self) -> &mut Simulation {
         &mut self.sim
+    }
+
+    /// Recomputes the observation and info from the simulation as it is now (after changing
+    /// it through [`PickAndPlaceEnv::simulation_mut`]); the step count is unchanged.
+    pub fn refresh(&mut self) -> Result<&StepInfo> {
+        if self.status == Status::NeverReset {
+            return Err(Error::ResetNeeded {
+                reason: "refresh() called before the first reset()".into(),
+            });
+        }
+        if !(self.is_stable() && self.write_observation()) {
+            self.status = Status::Unstable;
+            return Err(Error::ResetNeeded {
+                reason: "the simulation's state is not finite or moves faster than the blow-up thresholds".into(),
+            });
+        }
+        let ik_error = self.info.ik_position_error;
+        self.info = self.evaluate(false, ik_error);
+        Ok(&self.info)
     }
 
     /// Starts a new episode. `seed` re-seeds this environment's stream (from `(seed, index)`);
