@@ -134,6 +134,93 @@ impl Default for TaskThresholds {
 ///
 /// The physics step `sim.solver.dt` and `control_frequency` fix the number of physics steps
 /// per action; `sim.solver.substeps` is derived from them (whatever it is set to).
+///
+/// # Defaults
+///
+/// Every field with its default value (checked by this doc test):
+///
+/// ```
+/// let defaults = r#"
+/// {
+///   "control_mode": "ee",
+///   "reward_type": "sparse",
+///   "max_episode_steps": 50,
+///   "control_frequency": 25.0,
+///   "success_threshold": 0.05,
+///   "terminate_on_success": false,
+///   "pick_region": {
+///     "low": [0.4, -0.2],
+///     "high": [0.6, 0.0]
+///   },
+///   "cube_yaw_range": [-0.25, 0.25],
+///   "goal_region": {
+///     "low": [0.42, 0.22],
+///     "high": [0.58, 0.38]
+///   },
+///   "goal_air_probability": 0.0,
+///   "goal_air_height": [0.05, 0.2],
+///   "ee_step": 0.05,
+///   "joint_step": 0.05,
+///   "ee_workspace": [[0.15, -0.6, 0.0], [0.85, 0.6, 0.6]],
+///   "ee_surface_clearance": 0.02,
+///   "ee_surface_margin": 0.05,
+///   "randomization": {
+///     "cube_size": null,
+///     "cube_mass": null,
+///     "cube_friction": null,
+///     "joint_noise": 0.0
+///   },
+///   "thresholds": {
+///     "grasp_force": 1.0,
+///     "rest_linear_speed": 0.02,
+///     "rest_angular_speed": 0.3,
+///     "unstable_linear_speed": 20.0,
+///     "unstable_angular_speed": 200.0
+///   },
+///   "sim": {
+///     "gravity": [0.0, 0.0, -9.81],
+///     "robot_urdf": null,
+///     "robot_base": [0.0, 0.0, 0.0],
+///     "initial_configuration": null,
+///     "finger_friction": 1.0,
+///     "robot_friction": 0.5,
+///     "floor_friction": 1.0,
+///     "solver": {
+///       "dt": 0.01,
+///       "substeps": 4,
+///       "solver_iterations": 6,
+///       "contact_natural_frequency": 120.0,
+///       "contact_damping_ratio": 5.0,
+///       "length_unit": 0.1
+///     },
+///     "motors": {
+///       "stiffness": 40000.0,
+///       "damping": 400.0,
+///       "velocity_damping": 400.0,
+///       "gripper_force": 20.0,
+///       "gripper_stiffness": 5000.0,
+///       "gripper_damping": 50.0,
+///       "arm_armature": 0.0,
+///       "finger_armature": 0.05
+///     },
+///     "platform": {
+///       "top_center": [0.5, 0.3, 0.1],
+///       "size": [0.3, 0.3, 0.1],
+///       "friction": 1.0
+///     },
+///     "cube": {
+///       "size": 0.05,
+///       "mass": 0.1,
+///       "friction": 1.0,
+///       "position": [0.5, -0.15, 0.025]
+///     }
+///   }
+/// }
+/// "#;
+/// let documented: serde_json::Value = serde_json::from_str(defaults).unwrap();
+/// let actual = serde_json::to_value(panda_rapier_core::EnvConfig::default()).unwrap();
+/// assert_eq!(documented, actual);
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct EnvConfig {
