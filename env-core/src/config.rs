@@ -186,14 +186,14 @@ impl Default for SimConfig {
 /// The Panda's ready pose: hand pointing down above the work surface, gripper open.
 pub const PANDA_READY: [f64; 8] = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.04];
 
-fn invalid(field: &str, reason: impl Into<String>) -> Error {
+pub(crate) fn invalid(field: &str, reason: impl Into<String>) -> Error {
     Error::InvalidConfig {
         field: field.to_owned(),
         reason: reason.into(),
     }
 }
 
-fn positive(field: &str, value: f64) -> Result<()> {
+pub(crate) fn positive(field: &str, value: f64) -> Result<()> {
     if value.is_finite() && value > 0.0 {
         Ok(())
     } else {
@@ -204,7 +204,7 @@ fn positive(field: &str, value: f64) -> Result<()> {
     }
 }
 
-fn non_negative(field: &str, value: f64) -> Result<()> {
+pub(crate) fn non_negative(field: &str, value: f64) -> Result<()> {
     if value.is_finite() && value >= 0.0 {
         Ok(())
     } else {

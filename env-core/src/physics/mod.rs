@@ -205,6 +205,17 @@ impl std::fmt::Debug for SimSnapshot {
     }
 }
 
+/// One body the cube touches, as `Simulation::for_each_cube_contact` reports it.
+enum CubeContact {
+    Floor,
+    Platform,
+    /// A robot link (index into the model's links) and its normal force (N).
+    Robot {
+        link: usize,
+        force: f64,
+    },
+}
+
 const STATIC_GROUP: Group = Group::GROUP_1;
 const CUBE_GROUP: Group = Group::GROUP_2;
 /// Links that cannot reach the floor or the platform (the base and the first link), so their
@@ -1076,6 +1087,24 @@ impl Simulation {
     /// What the cube touches right now (contacts with a positive impulse in the last step).
     pub fn cube_contacts(&self) -> CubeContacts {
         let mut contacts = CubeContacts::default();
+        self.for_each_cube_contact(|contact| match contact {
+            CubeContact::Floor => contacts.floor = true,
+            CubeContact::Platform => contacts.platform = true,
+            CubeContact::Robot { link, force } => {
+                match contacts.robot_links.iter().position(|&l| l == link) {
+                    Some(i) => contacts.robot_forces[i] += force,
+                    None => {
+                        contacts.robot_links.push(link);
+                        contacts.robot_forces.push(force);
+                    }
+                }
+            }
+        });
+        contacts
+    }
+
+    /// Calls `visit` for every collider pair of the cube with an active contact.
+    fn for_each_cube_contact(&self, mut visit: impl FnMut(CubeContact)) {
         for pair in self
             .world
             .narrow_phase
@@ -1090,22 +1119,15 @@ impl Simulation {
                 pair.collider1
             };
             if other == self.floor_collider {
-                contacts.floor = true;
+                visit(CubeContact::Floor);
             } else if other == self.platform_collider {
-                contacts.platform = true;
+                visit(CubeContact::Platform);
             } else if let Some(&(_, link)) = self.robot_colliders.iter().find(|(c, _)| *c == other)
             {
                 let force = pair.total_impulse().length() as f64 / self.config.solver.dt;
-                match contacts.robot_links.iter().position(|&l| l == link) {
-                    Some(i) => contacts.robot_forces[i] += force,
-                    None => {
-                        contacts.robot_links.push(link);
-                        contacts.robot_forces.push(force);
-                    }
-                }
+                visit(CubeContact::Robot { link, force });
             }
         }
-        contacts
     }
 
     /// Joints or constraints of any kind that attach the cube to another body. The grasp is
@@ -1123,32 +1145,16 @@ impl Simulation {
     /// the last physics step).
     pub fn cube_touch(&self) -> CubeTouch {
         let mut touch = CubeTouch::default();
-        for pair in self
-            .world
-            .narrow_phase
-            .contact_pairs_with(self.cube_collider)
-        {
-            if !pair.has_any_active_contact() {
-                continue;
-            }
-            let other = if pair.collider1 == self.cube_collider {
-                pair.collider2
-            } else {
-                pair.collider1
-            };
-            if other == self.floor_collider {
-                touch.floor = true;
-            } else if other == self.platform_collider {
-                touch.platform = true;
-            } else if let Some(&(_, link)) = self.robot_colliders.iter().find(|(c, _)| *c == other)
-            {
-                let force = pair.total_impulse().length() as f64 / self.config.solver.dt;
+        self.for_each_cube_contact(|contact| match contact {
+            CubeContact::Floor => touch.floor = true,
+            CubeContact::Platform => touch.platform = true,
+            CubeContact::Robot { link, force } => {
                 match self.finger_links.iter().position(|&l| l == link) {
                     Some(i) if i < 2 => touch.finger_forces[i] += force,
                     _ => touch.other_robot_force += force,
                 }
             }
-        }
+        });
         touch
     }
 

@@ -2,8 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::SimConfig;
-use crate::error::{Error, Result};
+use crate::config::{invalid, non_negative, positive, SimConfig};
+use crate::error::Result;
 
 /// How actions drive the robot.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -306,24 +306,6 @@ impl Default for EnvConfig {
     }
 }
 
-fn invalid(field: &str, reason: impl Into<String>) -> Error {
-    Error::InvalidConfig {
-        field: field.to_owned(),
-        reason: reason.into(),
-    }
-}
-
-fn positive(field: &str, value: f64) -> Result<()> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(invalid(
-            field,
-            format!("must be finite and > 0, got {value}"),
-        ))
-    }
-}
-
 fn range(field: &str, r: Range, min: f64) -> Result<()> {
     if !(r[0].is_finite() && r[1].is_finite()) {
         return Err(invalid(field, format!("must be finite, got {r:?}")));
@@ -394,17 +376,8 @@ impl EnvConfig {
         positive("success_threshold", self.success_threshold)?;
         positive("ee_step", self.ee_step)?;
         positive("joint_step", self.joint_step)?;
-        for (field, value) in [
-            ("ee_surface_clearance", self.ee_surface_clearance),
-            ("ee_surface_margin", self.ee_surface_margin),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(invalid(
-                    field,
-                    format!("must be finite and >= 0, got {value}"),
-                ));
-            }
-        }
+        non_negative("ee_surface_clearance", self.ee_surface_clearance)?;
+        non_negative("ee_surface_margin", self.ee_surface_margin)?;
         self.pick_region.validate("pick_region")?;
         self.goal_region.validate("goal_region")?;
         range("cube_yaw_range", self.cube_yaw_range, f64::NEG_INFINITY)?;
@@ -450,12 +423,7 @@ impl EnvConfig {
         if let Some(f) = r.cube_friction {
             range("randomization.cube_friction", f, 0.0)?;
         }
-        if !(r.joint_noise.is_finite() && r.joint_noise >= 0.0) {
-            return Err(invalid(
-                "randomization.joint_noise",
-                format!("must be finite and >= 0, got {}", r.joint_noise),
-            ));
-        }
+        non_negative("randomization.joint_noise", r.joint_noise)?;
         let t = &self.thresholds;
         positive("thresholds.grasp_force", t.grasp_force)?;
         positive("thresholds.rest_linear_speed", t.rest_linear_speed)?;
@@ -504,6 +472,7 @@ impl EnvConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::Error;
 
     #[test]
     fn defaults_are_valid_and_give_four_substeps() {
