@@ -394,7 +394,9 @@ impl PickAndPlaceEnv {
         let size = pick(r.cube_size, cube.size, size_u);
         let mass = pick(r.cube_mass, cube.mass, mass_u);
         let friction = pick(r.cube_friction, cube.friction, friction_u);
-        let mut q = self.ready.clone();
+        // The start configuration goes into the targets scratch buffer: no allocation.
+        let q = &mut self.targets;
+        q.copy_from_slice(&self.ready);
         for &dof in &self.arm_dofs {
             let u = draw();
             q[dof] += r.joint_noise * (2.0 * u - 1.0);
@@ -424,7 +426,7 @@ impl PickAndPlaceEnv {
         if r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some() {
             self.sim.set_cube_properties(size, mass, friction)?;
         }
-        self.sim.set_joint_positions(&q)?;
+        self.sim.set_joint_positions(&self.targets)?;
         let width = self.sim.gripper_width();
         self.sim.set_gripper(width, None)?;
         self.sim.set_cube_pose(
