@@ -200,13 +200,15 @@ impl VecEnv {
         self.lanes[0].env.reward_function()
     }
 
-    /// Environment `i`.
-    pub fn env(&self, i: usize) -> Result<&PickAndPlaceEnv> {
-        let n = self.lanes.len();
+    fn lane(&self, i: usize) -> Result<&Lane> {
         self.lanes
             .get(i)
-            .map(|l| &l.env)
-            .ok_or_else(|| out_of_range(i, n))
+            .ok_or_else(|| out_of_range(i, self.lanes.len()))
+    }
+
+    /// Environment `i`.
+    pub fn env(&self, i: usize) -> Result<&PickAndPlaceEnv> {
+        self.lane(i).map(|l| &l.env)
     }
 
     /// Environment `i`, mutably (the next outputs are refreshed by the next step or reset).
@@ -257,11 +259,7 @@ impl VecEnv {
     /// Info of environment `i` for the last step: the step's info, also when the environment
     /// was then reset (same-step mode), or the reset's info for a row that was reset.
     pub fn info(&self, i: usize) -> Result<&StepInfo> {
-        let n = self.lanes.len();
-        self.lanes
-            .get(i)
-            .map(|l| &l.transition.info)
-            .ok_or_else(|| out_of_range(i, n))
+        self.lane(i).map(|l| &l.transition.info)
     }
 
     /// Infos of all environments for the last step, in order.
@@ -272,11 +270,7 @@ impl VecEnv {
     /// Info of the first step of the episode that a same-step autoreset started, for row `i`
     /// (only meaningful where [`VecEnv::has_final_observation`] is true).
     pub fn reset_info(&self, i: usize) -> Result<&StepInfo> {
-        let n = self.lanes.len();
-        self.lanes
-            .get(i)
-            .map(|l| &l.reset_info)
-            .ok_or_else(|| out_of_range(i, n))
+        self.lane(i).map(|l| &l.reset_info)
     }
 
     /// Resets every environment; environment `i` is seeded from `(seed, i)` when a seed is given.
