@@ -347,7 +347,7 @@ impl PickAndPlaceEnv {
             });
         }
         let ik_error = self.info.ik_position_error;
-        self.info = self.evaluate(false, ik_error);
+        self.info = self.evaluate(false, ik_error).0;
         Ok(&self.info)
     }
 
@@ -444,7 +444,7 @@ impl PickAndPlaceEnv {
                 reason: "the start state is not finite".into(),
             });
         }
-        self.info = self.evaluate(false, f64::NAN);
+        self.info = self.evaluate(false, f64::NAN).0;
         Ok(())
     }
 
@@ -496,25 +496,14 @@ impl PickAndPlaceEnv {
         if !stable {
             self.status = Status::Unstable;
         }
-        self.info = self.evaluate(!stable, ik_error);
-        let info = self.info;
+        let (info, reward) = self.evaluate(!stable, ik_error);
+        self.info = info;
         Transition {
-            reward: self.reward_of(&info),
+            reward,
             terminated: self.config.terminate_on_success && info.is_success,
             truncated: !stable || self.elapsed >= self.config.max_episode_steps,
             info,
         }
-    }
-
-    fn reward_of(&self, info: &StepInfo) -> f32 {
-        let l = &self.layout;
-        self.reward_fn
-            .evaluate(
-                &self.observation[l.achieved_goal()],
-                &self.observation[l.desired_goal()],
-                &info.context,
-            )
-            .reward
     }
 
     /// Turns `action` into joint targets (`self.targets`, from the measured `self.q`), limited
@@ -647,8 +636,8 @@ impl PickAndPlaceEnv {
         true
     }
 
-    /// The info for the current observation.
-    fn evaluate(&self, unstable: bool, ik_error: f64) -> StepInfo {
+    /// The info and the reward for the current observation.
+    fn evaluate(&self, unstable: bool, ik_error: f64) -> (StepInfo, f32) {
         let t = &self.config.thresholds;
         let touch = self.sim.cube_touch();
         let l = &self.layout;
@@ -676,7 +665,7 @@ impl PickAndPlaceEnv {
         let verdict =
             self.reward_fn
                 .evaluate(&obs[l.achieved_goal()], &obs[l.desired_goal()], &context);
-        StepInfo {
+        let info = StepInfo {
             is_success: verdict.is_success,
             is_grasped,
             is_lifted: is_grasped && !touch.floor && !touch.platform,
@@ -687,7 +676,8 @@ impl PickAndPlaceEnv {
             terms: verdict.terms,
             ik_position_error: ik_error,
             elapsed_steps: self.elapsed,
-        }
+        };
+        (info, verdict.reward)
     }
 
     /// Copies the whole state: physics, random stream, goal, episode clock.
