@@ -25,7 +25,7 @@ fn env_steps_allocate_only_what_the_physics_allocates() {
     for mode in [ControlMode::Ee, ControlMode::Joints] {
         let config = EnvConfig {
             control_mode: mode,
-            max_episode_steps: 10_000,
+            max_episode_steps: Some(10_000),
             ..EnvConfig::default()
         };
         let substeps = config.substeps().unwrap();

@@ -13,7 +13,7 @@ const LEN: u32 = 5;
 
 fn config() -> EnvConfig {
     EnvConfig {
-        max_episode_steps: LEN,
+        max_episode_steps: Some(LEN),
         ..EnvConfig::default()
     }
 }

@@ -56,7 +56,7 @@ fn vec_rollout(num_envs: usize, threads: usize, steps: usize, config: &EnvConfig
 fn short_episodes() -> EnvConfig {
     // Short episodes so the autoreset path is exercised too.
     EnvConfig {
-        max_episode_steps: 12,
+        max_episode_steps: Some(12),
         ..EnvConfig::default()
     }
 }

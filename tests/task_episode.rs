@@ -48,7 +48,7 @@ fn run_episode(env: &mut PickAndPlaceEnv, seed: u64, verbose: bool) -> (Option<u
     env.reset(Some(seed), &ResetOptions::default()).unwrap();
     let mut phase = 0;
     let mut seen = [false; 4];
-    for step in 0..env.config().max_episode_steps {
+    for step in 0..env.config().max_episode_steps.unwrap_or(100) {
         let obs = env.observation().to_vec();
         let action = scripted_ee(&obs, env, &mut phase);
         let t = env.step(&action).unwrap();
@@ -82,7 +82,7 @@ fn scripted_episodes_grasp_lift_and_place() {
     let config = EnvConfig {
         control_mode: ControlMode::Ee,
         reward_type: RewardType::Dense,
-        max_episode_steps: 100,
+        max_episode_steps: Some(100),
         ..EnvConfig::default()
     };
     let mut env = PickAndPlaceEnv::new(config).unwrap();

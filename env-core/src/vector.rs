@@ -58,6 +58,8 @@ struct Lane {
 pub struct VecEnv {
     lanes: Vec<Lane>,
     pool: Option<rayon::ThreadPool>,
+    /// The process that started the pool's threads (see [`VecEnv::ensure_pool_usable`]).
+    pool_pid: u32,
     num_threads: usize,
     autoreset: AutoresetMode,
     obs_dim: usize,
@@ -110,20 +112,7 @@ impl VecEnv {
                 .map_or(1, |n| n.get())
                 .min(num_envs),
         };
-        let pool = if num_threads > 1 {
-            Some(
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(num_threads)
-                    .thread_name(|i| format!("panda-rapier-{i}"))
-                    .build()
-                    .map_err(|e| Error::InvalidConfig {
-                        field: "num_threads".into(),
-                        reason: format!("could not start {num_threads} threads: {e}"),
-                    })?,
-            )
-        } else {
-            None
-        };
+        let pool = build_pool(num_threads)?;
         let build = |i: usize| PickAndPlaceEnv::with_index(config.clone(), i as u64);
         let envs: Vec<PickAndPlaceEnv> = match &pool {
             Some(pool) => pool.install(|| {
@@ -151,6 +140,7 @@ impl VecEnv {
         Ok(Self {
             lanes,
             pool,
+            pool_pid: std::process::id(),
             num_threads,
             autoreset,
             obs_dim,
@@ -309,7 +299,7 @@ impl VecEnv {
             lane.ended = false;
             lane.has_final = false;
             lane.was_reset = true;
-        });
+        })?;
         self.gather(Some(mask))
     }
 
@@ -375,16 +365,17 @@ impl VecEnv {
                 lane.ended = done;
             }
             obs.copy_from_slice(lane.env.observation());
-        });
+        })?;
         self.gather(None)
     }
 
     /// Runs `f(i, lane, observation row, final observation row, action row)` for every
     /// environment, in parallel when the pool has more than one thread.
-    fn for_each_lane<F>(&mut self, actions: &[f32], f: F)
+    fn for_each_lane<F>(&mut self, actions: &[f32], f: F) -> Result<()>
     where
         F: Fn(usize, &mut Lane, &mut [f32], &mut [f32], &[f32]) + Sync,
     {
+        self.ensure_pool_usable()?;
         let d = self.obs_dim;
         let a = self.action_dim;
         let action_row = |i: usize| actions.get(i * a..(i + 1) * a).unwrap_or(&[]);
@@ -415,6 +406,22 @@ impl VecEnv {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// A process forked from the one that built the pool (Python's `multiprocessing`,
+    /// stable-baselines3's `SubprocVecEnv`) inherits the pool's bookkeeping but none of its
+    /// threads: work handed to it would wait forever. Such a child builds a pool of its own.
+    fn ensure_pool_usable(&mut self) -> Result<()> {
+        let pid = std::process::id();
+        if self.pool.is_some() && pid != self.pool_pid {
+            // Dropping the inherited pool would signal threads that do not exist here, through
+            // locks a parent thread may have held at the fork; leak it instead (once per fork).
+            std::mem::forget(self.pool.take());
+            self.pool = build_pool(self.num_threads)?;
+            self.pool_pid = pid;
+        }
+        Ok(())
     }
 
     /// Copies the lanes' scalar outputs into the contiguous buffers; reports the first error.
@@ -435,6 +442,22 @@ impl VecEnv {
         }
         first_error.map_or(Ok(()), Err)
     }
+}
+
+/// A pool of `num_threads` workers, or `None` for one thread (work stays on the caller's).
+fn build_pool(num_threads: usize) -> Result<Option<rayon::ThreadPool>> {
+    if num_threads <= 1 {
+        return Ok(None);
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(num_threads)
+        .thread_name(|i| format!("panda-rapier-{i}"))
+        .build()
+        .map(Some)
+        .map_err(|e| Error::InvalidConfig {
+            field: "num_threads".into(),
+            reason: format!("could not start {num_threads} threads: {e}"),
+        })
 }
 
 fn out_of_range(index: usize, count: usize) -> Error {

@@ -228,8 +228,9 @@ pub struct EnvConfig {
     pub control_mode: ControlMode,
     /// Sparse or dense reward.
     pub reward_type: RewardType,
-    /// Steps after which an episode is truncated.
-    pub max_episode_steps: u32,
+    /// Steps after which an episode is truncated; `null` (`None`): never, for when an outer
+    /// wrapper keeps time (Gymnasium's `TimeLimit`, which `gym.make` adds from the registry).
+    pub max_episode_steps: Option<u32>,
     /// Actions per simulated second (Hz); `1 / (control_frequency * sim.solver.dt)` must be a
     /// whole number of physics steps.
     pub control_frequency: f64,
@@ -279,7 +280,7 @@ impl Default for EnvConfig {
         Self {
             control_mode: ControlMode::Ee,
             reward_type: RewardType::Sparse,
-            max_episode_steps: 50,
+            max_episode_steps: Some(50),
             control_frequency: 25.0,
             success_threshold: 0.05,
             terminate_on_success: false,
@@ -370,7 +371,7 @@ impl EnvConfig {
     /// Checks every value; the first problem is returned with its field name.
     pub fn validate(&self) -> Result<()> {
         self.sim_config()?.validate()?;
-        if self.max_episode_steps == 0 {
+        if self.max_episode_steps == Some(0) {
             return Err(invalid("max_episode_steps", "must be >= 1, got 0"));
         }
         positive("success_threshold", self.success_threshold)?;
@@ -504,7 +505,7 @@ mod tests {
                 Box::new(|c| c.control_frequency = 30.0),
             ),
             ("control_frequency", Box::new(|c| c.control_frequency = 0.0)),
-            ("max_episode_steps", Box::new(|c| c.max_episode_steps = 0)),
+            ("max_episode_steps", Box::new(|c| c.max_episode_steps = Some(0))),
             (
                 "success_threshold",
                 Box::new(|c| c.success_threshold = -0.1),

@@ -501,7 +501,11 @@ impl PickAndPlaceEnv {
         Transition {
             reward,
             terminated: self.config.terminate_on_success && info.is_success,
-            truncated: !stable || self.elapsed >= self.config.max_episode_steps,
+            truncated: !stable
+                || self
+                    .config
+                    .max_episode_steps
+                    .is_some_and(|limit| self.elapsed >= limit),
             info,
         }
     }

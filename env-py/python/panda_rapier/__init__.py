@@ -1,0 +1,48 @@
+"""panda_rapier: Franka Panda pick-and-place on rapier3d, as Gymnasium environments and a
+native stable-baselines3 vector environment.
+
+``import panda_rapier`` registers the ids in :data:`ENV_IDS` with Gymnasium::
+
+    import gymnasium as gym
+    import panda_rapier
+
+    env = gym.make("panda_rapier/PickAndPlace-v0")
+    envs = gym.make_vec("panda_rapier/PickAndPlace-v0", num_envs=16,
+                        vectorization_mode="vector_entry_point")
+
+stable-baselines3 users: :func:`panda_rapier.sb3.make_vec_env` (needs the ``sb3`` extra).
+"""
+
+from __future__ import annotations
+
+from ._native import __version__
+from .env import PickAndPlaceEnv
+from .errors import (
+    AssetError,
+    ConfigError,
+    InvalidActionError,
+    InvalidArgumentError,
+    PandaRapierError,
+    ResetNeededError,
+)
+from .registration import ENV_IDS, MAX_EPISODE_STEPS, register_envs
+from .robot import Robot
+from .vector import PickAndPlaceVectorEnv
+
+__all__ = [
+    "ENV_IDS",
+    "MAX_EPISODE_STEPS",
+    "AssetError",
+    "ConfigError",
+    "InvalidActionError",
+    "InvalidArgumentError",
+    "PandaRapierError",
+    "PickAndPlaceEnv",
+    "PickAndPlaceVectorEnv",
+    "ResetNeededError",
+    "Robot",
+    "__version__",
+    "register_envs",
+]
+
+register_envs()

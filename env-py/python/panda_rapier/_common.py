@@ -1,0 +1,188 @@
+"""Helpers shared by the single, vector and stable-baselines3 environments: configuration
+serialisation, action checking, seeds, spaces, observation splitting and reward contexts."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from .errors import ConfigError, InvalidActionError, InvalidArgumentError, ResetNeededError
+
+#: Info keys that carry the goal-free inputs of the dense reward, in the order the native
+#: ``compute_reward`` takes them.
+CONTEXT_FLOAT_KEYS = ("reward_reach", "reward_grasp", "reward_lift")
+CONTEXT_FLAG_KEYS = ("cube_released", "cube_at_rest", "cube_on_platform")
+
+#: Slices of the flat native observation (Gymnasium's ``spaces.flatten`` order of the dict).
+GOAL_DIM = 3
+ACHIEVED = slice(0, GOAL_DIM)
+DESIRED = slice(GOAL_DIM, 2 * GOAL_DIM)
+OBSERVATION = slice(2 * GOAL_DIM, None)
+
+_MAX_SEED = 2**64
+
+
+def config_json(config: Mapping[str, Any]) -> str:
+    """Serialises keyword options for the native side (which validates them)."""
+
+    def builtin(value: Any) -> Any:
+        if isinstance(value, np.ndarray | np.generic):
+            return value.tolist()
+        raise ConfigError(f"option value {value!r} of type {type(value).__name__} is not supported")
+
+    try:
+        return json.dumps(dict(config), default=builtin, allow_nan=True)
+    except (TypeError, ValueError) as error:
+        raise ConfigError(f"options cannot be encoded: {error}") from error
+
+
+def as_seed(seed: Any) -> int | None:
+    """A seed for the native side: ``None`` or an int in ``[0, 2**64)``."""
+    if seed is None:
+        return None
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
+        raise InvalidArgumentError(f"seed must be a non-negative int or None, got {seed!r}")
+    if not 0 <= int(seed) < _MAX_SEED:
+        raise InvalidArgumentError(f"seed must be in [0, 2**64), got {seed}")
+    return int(seed)
+
+
+def as_actions(action: Any, shape: tuple[int, ...], what: str = "action") -> np.ndarray:
+    """Checks an action's shape and dtype and returns it as a C-contiguous float32 array.
+
+    Real dtypes are accepted (float32 without a copy); values outside [-1, 1] are clipped here
+    (so float64 values beyond float32's range do not become infinite); NaN and infinite values
+    are passed on and rejected by the native side with :class:`InvalidActionError`.
+    """
+    try:
+        array = np.asarray(action)
+    except (TypeError, ValueError) as error:
+        raise InvalidActionError(
+            f"{what} must be an array of shape {shape}, got {type(action).__name__}: {error}"
+        ) from error
+    if array.dtype.kind not in "fiu":
+        raise InvalidActionError(
+            f"{what} must hold real numbers (float32), got dtype {array.dtype} "
+            f"(expected shape {shape})"
+        )
+    if array.shape != shape:
+        raise InvalidActionError(f"{what} must have shape {shape}, got {array.shape}")
+    if array.dtype == np.float32:
+        return np.ascontiguousarray(array)
+    wide = array.astype(np.float64)
+    np.clip(wide, -1.0, 1.0, out=wide, where=np.isfinite(wide))
+    return wide.astype(np.float32)
+
+
+#: Bound of every observation entry. Finite observations stay far inside it: the blow-up
+#: detector ends the episode (keeping the last valid observation) once any body moves faster
+#: than 20 m/s or spins faster than 200 rad/s, and positions stay within metres of the robot.
+OBSERVATION_BOUND = 1000.0
+
+
+def observation_space(observation_dim: int) -> spaces.Dict:
+    """The goal-conditioned dict space (keys sorted as Gymnasium sorts them)."""
+
+    def box(n: int) -> spaces.Box:
+        return spaces.Box(-OBSERVATION_BOUND, OBSERVATION_BOUND, shape=(n,), dtype=np.float32)
+
+    return spaces.Dict(
+        {
+            "achieved_goal": box(GOAL_DIM),
+            "desired_goal": box(GOAL_DIM),
+            "observation": box(observation_dim - 2 * GOAL_DIM),
+        }
+    )
+
+
+def action_space(action_dim: int) -> spaces.Box:
+    """Actions in [-1, 1]."""
+    return spaces.Box(-1.0, 1.0, shape=(action_dim,), dtype=np.float32)
+
+
+def split_observation(flat: np.ndarray) -> dict[str, np.ndarray]:
+    """The dict observation from a flat one (``(d,)`` or ``(n, d)``), as contiguous arrays."""
+    return {
+        "achieved_goal": np.ascontiguousarray(flat[..., ACHIEVED]),
+        "desired_goal": np.ascontiguousarray(flat[..., DESIRED]),
+        "observation": np.ascontiguousarray(flat[..., OBSERVATION]),
+    }
+
+
+def compute_reward(
+    native: Any, achieved_goal: Any, desired_goal: Any, info: Any, dense: bool
+) -> Any:
+    """Batched reward over any leading shape; a float for a single transition."""
+    achieved = np.asarray(achieved_goal, dtype=np.float32)
+    desired = np.asarray(desired_goal, dtype=np.float32)
+    if achieved.shape != desired.shape or achieved.ndim == 0 or achieved.shape[-1] != GOAL_DIM:
+        raise InvalidArgumentError(
+            "achieved_goal and desired_goal must have the same shape (..., 3), got "
+            f"{achieved.shape} and {desired.shape}"
+        )
+    lead = achieved.shape[:-1]
+    n = int(np.prod(lead, dtype=np.int64))
+    context = context_columns(info, n) if dense else None
+    rewards = native.compute_reward(
+        np.ascontiguousarray(achieved.reshape(n, GOAL_DIM)),
+        np.ascontiguousarray(desired.reshape(n, GOAL_DIM)),
+        context,
+    )
+    if not lead:
+        return float(rewards[0])
+    return rewards.reshape(lead)
+
+
+def context_columns(info: Any, n: int) -> tuple[np.ndarray, ...]:
+    """The dense reward's goal-free inputs for ``n`` transitions, from an info dict (scalars or
+    arrays), or a sequence / object array of info dicts (what ``HerReplayBuffer`` passes)."""
+    keys = CONTEXT_FLOAT_KEYS + CONTEXT_FLAG_KEYS
+    dtypes = [np.float32] * len(CONTEXT_FLOAT_KEYS) + [np.bool_] * len(CONTEXT_FLAG_KEYS)
+    try:
+        if isinstance(info, Mapping):
+            columns = [
+                np.ascontiguousarray(
+                    np.broadcast_to(np.asarray(info[key], dtype=dtype).reshape(-1), (n,))
+                )
+                for key, dtype in zip(keys, dtypes, strict=True)
+            ]
+        elif isinstance(info, Sequence | np.ndarray):
+            infos = np.asarray(info, dtype=object).reshape(-1)
+            if len(infos) != n:
+                raise InvalidArgumentError(
+                    f"info must hold one dict per transition: {n} transitions, {len(infos)} infos"
+                )
+            columns = [
+                np.fromiter((entry[key] for entry in infos), dtype=dtype, count=n)
+                for key, dtype in zip(keys, dtypes, strict=True)
+            ]
+        else:
+            raise InvalidArgumentError(
+                f"the dense reward needs the step info (a dict or a sequence of dicts), got "
+                f"{type(info).__name__}"
+            )
+    except KeyError as error:
+        raise InvalidArgumentError(
+            f"info lacks {error.args[0]!r}: the dense reward needs the keys {list(keys)} "
+            "that every step's info carries (stable-baselines3: create the HerReplayBuffer "
+            "with replay_buffer_kwargs={'copy_info_dict': True}, or use the sparse reward)"
+        ) from error
+    except ValueError as error:
+        raise InvalidArgumentError(f"info does not match {n} transitions: {error}") from error
+    return tuple(columns)
+
+
+class Closed:
+    """Stands in for the native object after ``close()``: any use raises."""
+
+    def __init__(self, what: str) -> None:
+        self._what = what
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise ResetNeededError(f"the {self._what} is closed")

@@ -1,0 +1,158 @@
+"""The single-instance Gymnasium environment."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.utils import EzPickle
+
+from . import _common
+from ._native import NativeEnv
+from .errors import ConfigError, InvalidArgumentError
+from .robot import Robot
+
+RENDER_MODES = ("human", "rgb_array")
+
+
+class PickAndPlaceEnv(gym.Env[dict[str, np.ndarray], np.ndarray], EzPickle):
+    """A Franka Panda picks a cube off the floor and places it on a platform.
+
+    ## Description
+    A Panda on a fixed base, a 4 cm cube on the floor in front of it and a raised platform to
+    its left, simulated by rapier3d (multibody arm with torque-limited joint motors, friction
+    grasp: the fingers hold the cube by contact forces alone). The goal is a point on the
+    platform (optionally in the air, ``goal_air_probability``); the cube must be carried there
+    and, for ``is_placed``, released at rest.
+
+    ## Action Space
+    ``Box(-1, 1, (4,), float32)`` with ``control_mode="ee"`` (default): TCP displacement x, y, z
+    times ``ee_step`` (0.05 m) through inverse kinematics, hand pointing down, and the gripper
+    (-1 squeezes, +1 opens fully). ``Box(-1, 1, (8,), float32)`` with ``control_mode="joints"``:
+    the 7 arm joints' displacements times ``joint_step`` (0.05 rad) and the gripper. Targets are
+    limited by the joints' velocity limits; actions outside [-1, 1] are clipped.
+
+    ## Observation Space
+    ``Dict(achieved_goal: (3,), desired_goal: (3,), observation: (41,))``, float32: the cube's
+    position, the goal, and joint positions (9) and velocities (9), TCP position and velocity,
+    gripper width, cube position, orientation (quaternion xyzw, w >= 0), linear and angular
+    velocity, and the cube relative to the TCP.
+
+    ## Rewards
+    ``reward_type="sparse"`` (default): -1 until the cube is within ``success_threshold``
+    (0.05 m) of the goal, 0 within it. ``"dense"``: reach 1 + grasp 1 + lift 1 + carry 2 +
+    place 5, each term in the info as ``reward_*``. :meth:`compute_reward` recomputes either
+    from goals and infos, batched, for hindsight experience replay.
+
+    ## Starting State
+    The arm in its ready pose (optionally with ``randomization.joint_noise``), the cube in
+    ``pick_region`` with a yaw in ``cube_yaw_range``, the goal in ``goal_region``.
+    ``reset(options=...)`` overrides ``cube_position``, ``cube_yaw``, ``goal`` or
+    ``joint_positions``.
+
+    ## Episode End
+    Terminated on success only with ``terminate_on_success=True``. Truncated by the
+    ``TimeLimit`` that ``gym.make`` adds (50 steps at 25 Hz), or, when constructed directly,
+    after ``max_episode_steps`` if given; and at once when the physics becomes unstable
+    (``info["physics_unstable"]``, after which ``step`` raises until ``reset``).
+
+    ## Arguments
+    Every field of the configuration (see the core's ``EnvConfig``) as a keyword argument,
+    nested ones as dicts: ``control_mode``, ``reward_type``, ``max_episode_steps``,
+    ``control_frequency``, ``success_threshold``, ``terminate_on_success``, ``pick_region``,
+    ``goal_region``, ``goal_air_probability``, ``randomization``, ``sim``, ... Unknown or invalid
+    values raise :class:`~panda_rapier.ConfigError`. ``render_mode`` is accepted for
+    Gymnasium compatibility; frames arrive with the renderer.
+
+    ## Determinism
+    ``reset(seed=s)`` makes everything that follows a function of ``s`` and the actions:
+    bit-identical across runs, processes and machines with the same build.
+
+    ## Version History
+    - v0: initial release.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": list(RENDER_MODES), "render_fps": 25}  # noqa: RUF012
+
+    def __init__(self, render_mode: str | None = None, **config: Any) -> None:
+        EzPickle.__init__(self, render_mode=render_mode, **config)
+        if render_mode is not None and render_mode not in RENDER_MODES:
+            raise ConfigError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
+        self.render_mode = render_mode
+        # gym.make keeps time with a TimeLimit wrapper; the env counts only when asked to.
+        config.setdefault("max_episode_steps", None)
+        self._native: Any = NativeEnv(_common.config_json(config), 0)
+        self._config: dict[str, Any] = json.loads(self._native.config_json())
+        self._dense = self._config["reward_type"] == "dense"
+        self.observation_space = _common.observation_space(self._native.observation_dim)
+        self.action_space = _common.action_space(self._native.action_dim)
+        self._action_shape = (int(self._native.action_dim),)
+        self.metadata = {**type(self).metadata, "render_fps": round(1.0 / self._native.dt)}
+        self.robot = Robot(self)
+
+    @property
+    def dt(self) -> float:
+        """Control period in seconds (one ``step``)."""
+        return float(self._native.dt)
+
+    @property
+    def config(self) -> dict[str, Any]:
+        """The full configuration, defaults filled in (a copy)."""
+        return json.loads(json.dumps(self._config))
+
+    @property
+    def goal(self) -> np.ndarray:
+        """The current goal position."""
+        return np.asarray(self._native.goal(), dtype=np.float64)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        native_seed = _common.as_seed(seed)
+        super().reset(seed=seed)
+        options_json = None
+        if options:
+            if not isinstance(options, dict):
+                raise InvalidArgumentError(f"options must be a dict, got {type(options).__name__}")
+            options_json = _common.config_json(options)
+        flat, info = self._native.reset(native_seed, options_json)
+        return _common.split_observation(flat), info
+
+    def step(
+        self, action: Any
+    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        flat, reward, terminated, truncated, info = self._native.step(
+            _common.as_actions(action, self._action_shape)
+        )
+        return _common.split_observation(flat), reward, terminated, truncated, info
+
+    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> Any:
+        """The reward the environment gives, recomputed from goals, batched over any leading
+        shape (a float for single goals), for hindsight experience replay.
+
+        ``info`` is a step's info dict, a dict of arrays, or a sequence / array of info dicts
+        (what ``HerReplayBuffer`` passes); the sparse reward does not read it.
+        """
+        return _common.compute_reward(self._native, achieved_goal, desired_goal, info, self._dense)
+
+    def save_state(self) -> Any:
+        """An opaque copy of the whole state (physics, random stream, goal, clock)."""
+        return self._native.save_state()
+
+    def restore_state(self, state: Any) -> None:
+        """Returns to a state from :meth:`save_state`; stepping on continues bit-identically."""
+        self._native.restore_state(state)
+
+    def render(self) -> None:
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode to gym.make.")
+            return None
+        raise NotImplementedError(
+            "panda_rapier cannot draw frames yet: render_mode is accepted for compatibility and "
+            "the CPU renderer is planned"
+        )
+
+    def close(self) -> None:
+        self._native = _common.Closed("environment")

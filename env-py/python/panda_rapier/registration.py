@@ -1,0 +1,34 @@
+"""Gymnasium registration of the panda_rapier environments."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+
+#: Episode length of every registered id (steps at 25 Hz: 2 s).
+MAX_EPISODE_STEPS = 50
+
+_VARIANTS: dict[str, dict[str, Any]] = {
+    "panda_rapier/PickAndPlace-v0": {"control_mode": "ee", "reward_type": "sparse"},
+    "panda_rapier/PickAndPlaceDense-v0": {"control_mode": "ee", "reward_type": "dense"},
+    "panda_rapier/PickAndPlaceJoints-v0": {"control_mode": "joints", "reward_type": "sparse"},
+    "panda_rapier/PickAndPlaceJointsDense-v0": {"control_mode": "joints", "reward_type": "dense"},
+}
+
+#: Every registered environment id.
+ENV_IDS: tuple[str, ...] = tuple(_VARIANTS)
+
+
+def register_envs() -> None:
+    """Registers every id in :data:`ENV_IDS` (idempotent)."""
+    for env_id, kwargs in _VARIANTS.items():
+        if env_id in gym.registry:
+            continue
+        gym.register(
+            id=env_id,
+            entry_point="panda_rapier.env:PickAndPlaceEnv",
+            vector_entry_point="panda_rapier.vector:PickAndPlaceVectorEnv",
+            max_episode_steps=MAX_EPISODE_STEPS,
+            kwargs=dict(kwargs),
+        )

@@ -1,0 +1,223 @@
+"""stable-baselines3 support: a ``VecEnv`` backed by the native vector environment.
+
+Needs the ``sb3`` extra (``pip install "panda-rapier[sb3]"``)::
+
+    from stable_baselines3 import PPO
+    from panda_rapier.sb3 import make_vec_env
+
+    env = make_vec_env("panda_rapier/PickAndPlaceDense-v0", n_envs=16, seed=0)
+    PPO("MultiInputPolicy", env).learn(100_000)
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+try:
+    from stable_baselines3.common.vec_env import VecEnv
+    from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices
+except ImportError as error:  # pragma: no cover - exercised only without the extra
+    raise ImportError(
+        "panda_rapier.sb3 needs stable-baselines3: pip install 'panda-rapier[sb3]'"
+    ) from error
+
+from . import _common
+from ._native import NativeVecEnv
+from .errors import ConfigError, InvalidArgumentError
+
+__all__ = ["PandaRapierVecEnv", "make_vec_env"]
+
+
+class _SubEnv:
+    """What ``get_attr`` / ``set_attr`` / ``env_method`` see as environment ``i``: the
+    attributes every environment shares, plus any set with ``set_attr``."""
+
+    def __init__(self, owner: PandaRapierVecEnv) -> None:
+        self._owner = owner
+        self.render_mode: str | None = None
+
+    @property
+    def dt(self) -> float:
+        return self._owner.dt
+
+    @property
+    def config(self) -> dict[str, Any]:
+        return self._owner.config
+
+    @property
+    def spec(self) -> gym.envs.registration.EnvSpec | None:
+        return self._owner.spec
+
+    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> Any:
+        return self._owner.compute_reward(achieved_goal, desired_goal, info)
+
+
+class PandaRapierVecEnv(VecEnv):
+    """``num_envs`` pick-and-place environments stepped in Rust, with stable-baselines3's
+    conventions: same-step reset with ``infos[i]["terminal_observation"]``,
+    ``infos[i]["TimeLimit.truncated"]``, ``infos[i]["is_success"]`` and, when an episode ends,
+    ``infos[i]["episode"]`` (return, length, time: what ``VecMonitor`` adds, so no wrapper is
+    needed for ``ep_rew_mean`` and success-rate logging). ``env_method("compute_reward", ...)``
+    is batched, so ``HerReplayBuffer`` works. Every info carries the step info of
+    :class:`~panda_rapier.PickAndPlaceEnv`.
+    """
+
+    def __init__(
+        self,
+        num_envs: int,
+        *,
+        num_threads: int | None = None,
+        spec: gym.envs.registration.EnvSpec | None = None,
+        **config: Any,
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
+            raise ConfigError(f"num_envs must be an int >= 1, got {num_envs!r}")
+        self._native: Any = NativeVecEnv(
+            _common.config_json(config),
+            int(num_envs),
+            None if num_threads is None else int(num_threads),
+            "same_step",
+        )
+        self._config: dict[str, Any] = json.loads(self._native.config_json())
+        self._dense = self._config["reward_type"] == "dense"
+        self.spec = spec
+        self._sub_envs = [_SubEnv(self) for _ in range(int(num_envs))]
+        super().__init__(
+            int(num_envs),
+            _common.observation_space(self._native.observation_dim),
+            _common.action_space(self._native.action_dim),
+        )
+        self._actions: np.ndarray | None = None
+        self._actions_shape = (self.num_envs, int(self._native.action_dim))
+        self._episode_returns = np.zeros(self.num_envs, dtype=np.float64)
+        self._episode_lengths = np.zeros(self.num_envs, dtype=np.int64)
+        self._start_time = time.time()
+
+    @property
+    def dt(self) -> float:
+        """Control period in seconds."""
+        return float(self._native.dt)
+
+    @property
+    def config(self) -> dict[str, Any]:
+        """The full configuration, defaults filled in (a copy)."""
+        return json.loads(json.dumps(self._config))
+
+    @property
+    def num_threads(self) -> int:
+        """Threads of the pool stepping the environments."""
+        return int(self._native.num_threads)
+
+    def reset(self) -> dict[str, np.ndarray]:
+        seeds = [_common.as_seed(s) for s in self._seeds]
+        if any(self._options):
+            raise InvalidArgumentError("PandaRapierVecEnv does not support reset options")
+        flat = self._native.reset(seeds, None)
+        self._reset_seeds()
+        self._reset_options()
+        self.reset_infos = _rows(self._native.infos("step"), self.num_envs)
+        self._episode_returns[:] = 0.0
+        self._episode_lengths[:] = 0
+        return _common.split_observation(flat)
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = _common.as_actions(actions, self._actions_shape, "actions")
+
+    def step_wait(self) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, list[dict[str, Any]]]:
+        if self._actions is None:
+            raise InvalidArgumentError("step_wait() called without step_async()")
+        flat, rewards, terminated, truncated = self._native.step(self._actions)
+        self._actions = None
+        dones = terminated | truncated
+        infos = _rows(self._native.infos("step"), self.num_envs)
+        self._episode_returns += rewards
+        self._episode_lengths += 1
+        if dones.any():
+            finals = _common.split_observation(self._native.final_observations())
+            reset_infos = _rows(self._native.infos("reset"), self.num_envs)
+            elapsed = round(time.time() - self._start_time, 6)
+            for i in np.flatnonzero(dones):
+                info = infos[i]
+                info["terminal_observation"] = {key: value[i] for key, value in finals.items()}
+                info["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+                info["episode"] = {
+                    "r": float(self._episode_returns[i]),
+                    "l": int(self._episode_lengths[i]),
+                    "t": elapsed,
+                }
+                self.reset_infos[i] = reset_infos[i]
+            self._episode_returns[dones] = 0.0
+            self._episode_lengths[dones] = 0
+        return _common.split_observation(flat), rewards, dones, infos
+
+    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> Any:
+        """Batched reward, as :meth:`panda_rapier.PickAndPlaceEnv.compute_reward`."""
+        return _common.compute_reward(self._native, achieved_goal, desired_goal, info, self._dense)
+
+    def close(self) -> None:
+        self._native = _common.Closed("vector environment")
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        return [getattr(self._sub_envs[i], attr_name) for i in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        for i in self._get_indices(indices):
+            setattr(self._sub_envs[i], attr_name, value)
+
+    def env_method(
+        self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
+    ) -> list[Any]:
+        return [
+            getattr(self._sub_envs[i], method_name)(*method_args, **method_kwargs)
+            for i in self._get_indices(indices)
+        ]
+
+    def env_is_wrapped(
+        self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None
+    ) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        return [None for _ in range(self.num_envs)]
+
+
+def _rows(columns: dict[str, np.ndarray], n: int) -> list[dict[str, Any]]:
+    """Per-environment info dicts of Python scalars from the native columns."""
+    keys = list(columns)
+    values: Iterable[list[Any]] = zip(*(columns[key].tolist() for key in keys), strict=True)
+    rows = [dict(zip(keys, row, strict=True)) for row in values]
+    assert len(rows) == n
+    return rows
+
+
+def make_vec_env(
+    env_id: str,
+    n_envs: int = 1,
+    seed: int | None = None,
+    num_threads: int | None = None,
+    **config: Any,
+) -> PandaRapierVecEnv:
+    """A :class:`PandaRapierVecEnv` for a registered id (``panda_rapier.ENV_IDS``), with the
+    id's options (and its 50-step time limit) overridden by ``config``.
+
+    With ``seed``, environment ``i``'s first episode is seeded with ``seed + i`` (as
+    stable-baselines3's own ``make_vec_env``); the same seed gives the same rollouts.
+    """
+    spec = gym.spec(env_id)
+    if not str(spec.entry_point).startswith("panda_rapier"):
+        raise ConfigError(f"{env_id} is not a panda_rapier environment; see panda_rapier.ENV_IDS")
+    options = dict(spec.kwargs)
+    if spec.max_episode_steps is not None:
+        options.setdefault("max_episode_steps", spec.max_episode_steps)
+    options.update(config)
+    options.pop("render_mode", None)
+    venv = PandaRapierVecEnv(n_envs, num_threads=num_threads, spec=spec, **options)
+    if seed is not None:
+        venv.seed(_common.as_seed(seed))
+    return venv

@@ -1,0 +1,202 @@
+"""The native Gymnasium vector environment: N environments stepped in parallel in Rust."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from . import _common
+from ._native import NativeVecEnv
+from .env import RENDER_MODES
+from .errors import ConfigError, InvalidArgumentError
+
+
+_NATIVE_MODES = {
+    AutoresetMode.NEXT_STEP: "next_step",
+    AutoresetMode.SAME_STEP: "same_step",
+    AutoresetMode.DISABLED: "disabled",
+}
+
+
+def _autoreset_mode(value: str | AutoresetMode) -> AutoresetMode:
+    """Gymnasium's enum, from itself, its value (``"NextStep"``) or ``"next_step"``."""
+    for mode, name in _NATIVE_MODES.items():
+        if value in (mode, mode.value, name):
+            return mode
+    raise ConfigError(
+        f"autoreset_mode must be one of {list(_NATIVE_MODES.values())} or a "
+        f"gymnasium.vector.AutoresetMode, got {value!r}"
+    )
+
+
+class PickAndPlaceVectorEnv(VectorEnv):
+    """``num_envs`` pick-and-place environments stepped by a Rust thread pool
+    (``num_threads``, default: the machine's cores), the GIL released meanwhile.
+
+    Created by ``gym.make_vec(env_id, num_envs, vectorization_mode="vector_entry_point")`` or
+    directly; every keyword argument of :class:`~panda_rapier.PickAndPlaceEnv` applies.
+    Environment ``i`` draws from the random stream ``(seed, i)``, so results do not depend on
+    ``num_threads`` and environment ``i`` behaves the same whatever ``num_envs`` is.
+
+    ``autoreset_mode`` is Gymnasium's ``next_step`` (default: the step after an episode ends
+    resets that environment and ignores its action), ``same_step`` (the ending step already
+    returns the new episode's first observation; the last one is in ``info["final_obs"]``, its
+    info in ``info["final_info"]``) or ``disabled`` (reset ended environments with
+    ``reset(options={"reset_mask": mask})``). Infos are dicts of arrays with ``_key`` masks.
+    """
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        *,
+        num_threads: int | None = None,
+        autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
+        render_mode: str | None = None,
+        **config: Any,
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
+            raise ConfigError(f"num_envs must be an int >= 1, got {num_envs!r}")
+        if num_threads is not None and (
+            isinstance(num_threads, bool)
+            or not isinstance(num_threads, int | np.integer)
+            or num_threads < 1
+        ):
+            raise ConfigError(f"num_threads must be an int >= 1 or None, got {num_threads!r}")
+        if render_mode is not None and render_mode not in RENDER_MODES:
+            raise ConfigError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
+        mode = _autoreset_mode(autoreset_mode)
+        self._native: Any = NativeVecEnv(
+            _common.config_json(config),
+            int(num_envs),
+            None if num_threads is None else int(num_threads),
+            _NATIVE_MODES[mode],
+        )
+        self._config: dict[str, Any] = json.loads(self._native.config_json())
+        self._dense = self._config["reward_type"] == "dense"
+        self.num_envs = int(num_envs)
+        self.render_mode = render_mode
+        self.metadata = {
+            "autoreset_mode": mode,
+            "render_modes": list(RENDER_MODES),
+            "render_fps": round(1.0 / self._native.dt),
+        }
+        self.single_observation_space = _common.observation_space(self._native.observation_dim)
+        self.single_action_space = _common.action_space(self._native.action_dim)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self._actions_shape = (self.num_envs, int(self._native.action_dim))
+        self._masks_all = np.ones(self.num_envs, dtype=np.bool_)
+        self._masks_all.flags.writeable = False
+
+    @property
+    def num_threads(self) -> int:
+        """Threads of the pool stepping the environments."""
+        return int(self._native.num_threads)
+
+    @property
+    def dt(self) -> float:
+        """Control period in seconds."""
+        return float(self._native.dt)
+
+    @property
+    def config(self) -> dict[str, Any]:
+        """The full configuration, defaults filled in (a copy)."""
+        return json.loads(json.dumps(self._config))
+
+    def reset(
+        self,
+        *,
+        seed: int | Sequence[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Resets all environments, or those in ``options["reset_mask"]``.
+
+        ``seed``: an int seeds environment ``i`` from ``(seed, i)``; a list gives one seed (or
+        None) per environment.
+        """
+        if seed is None or isinstance(seed, int | np.integer):
+            seeds = [_common.as_seed(seed)] * self.num_envs
+            super().reset(seed=seeds[0])
+        elif isinstance(seed, Sequence | np.ndarray) and len(seed) == self.num_envs:
+            seeds = [_common.as_seed(s) for s in seed]
+        else:
+            raise InvalidArgumentError(
+                f"seed must be an int, None or a list of {self.num_envs} seeds, got {seed!r}"
+            )
+        mask = None
+        if options:
+            unknown = set(options) - {"reset_mask"}
+            if unknown:
+                raise InvalidArgumentError(
+                    f"vector reset options support only 'reset_mask', got {sorted(unknown)}"
+                )
+            mask = np.asarray(options["reset_mask"])
+            if mask.dtype != np.bool_ or mask.shape != (self.num_envs,):
+                raise InvalidArgumentError(
+                    f"reset_mask must be a bool array of shape ({self.num_envs},), got "
+                    f"{mask.dtype} {mask.shape}"
+                )
+            mask = np.ascontiguousarray(mask)
+        flat = self._native.reset(seeds, mask)
+        return _common.split_observation(flat), self._with_masks(self._native.infos("step"))
+
+    def step(
+        self, actions: Any
+    ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        flat, rewards, terminated, truncated = self._native.step(
+            _common.as_actions(actions, self._actions_shape, "actions")
+        )
+        infos = self._native.infos("step")
+        if self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP:
+            ended = self._native.has_final_observation()
+            if ended.any():
+                infos = self._same_step_infos(infos, ended)
+        return _common.split_observation(flat), rewards, terminated, truncated, self._with_masks(infos)
+
+    def _same_step_infos(self, step_infos: dict[str, np.ndarray], ended: np.ndarray) -> dict[str, Any]:
+        """Gymnasium's same-step layout: rows that ended report the new episode's reset info,
+        with the ending step's observation and info under ``final_obs`` / ``final_info``."""
+        reset_infos = self._native.infos("reset")
+        infos: dict[str, Any] = {
+            key: np.where(ended, reset_infos[key], column) for key, column in step_infos.items()
+        }
+        final_obs = np.full(self.num_envs, None, dtype=object)
+        finals = _common.split_observation(self._native.final_observations())
+        for i in np.flatnonzero(ended):
+            final_obs[i] = {key: value[i] for key, value in finals.items()}
+        final_info: dict[str, Any] = {}
+        for key, column in step_infos.items():
+            final_info[key] = column
+            final_info[f"_{key}"] = ended
+        infos["final_obs"] = final_obs
+        infos["_final_obs"] = ended
+        infos["final_info"] = final_info
+        infos["_final_info"] = ended
+        return infos
+
+    def _with_masks(self, infos: dict[str, Any]) -> dict[str, Any]:
+        for key in [k for k in infos if not k.startswith("_")]:
+            infos.setdefault(f"_{key}", self._masks_all)
+        return infos
+
+    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> Any:
+        """See :meth:`panda_rapier.PickAndPlaceEnv.compute_reward`."""
+        return _common.compute_reward(self._native, achieved_goal, desired_goal, info, self._dense)
+
+    def render(self) -> None:
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode.")
+            return None
+        raise NotImplementedError(
+            "panda_rapier cannot draw frames yet: render_mode is accepted for compatibility and "
+            "the CPU renderer is planned"
+        )
+
+    def close_extras(self, **kwargs: Any) -> None:
+        self._native = _common.Closed("vector environment")

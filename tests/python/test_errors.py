@@ -1,0 +1,145 @@
+"""Bad input raises documented, typed exceptions; nothing crashes the interpreter."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import panda_rapier
+from panda_rapier import (
+    ConfigError,
+    InvalidActionError,
+    InvalidArgumentError,
+    PandaRapierError,
+    PickAndPlaceEnv,
+    PickAndPlaceVectorEnv,
+    ResetNeededError,
+)
+
+
+def test_hierarchy() -> None:
+    for cls in (InvalidActionError, ConfigError, InvalidArgumentError):
+        assert issubclass(cls, ValueError) and issubclass(cls, PandaRapierError)
+    assert issubclass(panda_rapier.AssetError, PandaRapierError)
+    assert issubclass(ResetNeededError, RuntimeError)
+
+
+@pytest.mark.parametrize(
+    ("action", "match"),
+    [
+        (np.zeros(3, np.float32), r"shape \(4,\)"),
+        (np.zeros((1, 4), np.float32), r"shape \(4,\)"),
+        (np.zeros(8, np.float32), r"shape \(4,\)"),
+        (np.array(["a", "b", "c", "d"]), r"real numbers .*shape \(4,\)"),
+        (np.zeros(4, np.complex64), "real numbers"),
+        (np.zeros(4, bool), "real numbers"),
+        (np.array([0.0, np.nan, 0.0, 0.0], np.float32), r"action\[1\] must be finite"),
+        (np.array([0.0, 0.0, np.inf, 0.0]), r"action\[2\] must be finite"),
+        ([0.0, 0.0], r"shape \(4,\)"),
+        (None, "real numbers"),
+        (object(), "real numbers"),
+        (np.float32(0.5), r"shape \(4,\)"),
+    ],
+    ids=lambda value: type(value).__name__,
+)
+def test_bad_actions(action: object, match: str) -> None:
+    env = gym.make("panda_rapier/PickAndPlace-v0")
+    env.reset(seed=0)
+    with pytest.raises(InvalidActionError, match=match):
+        env.step(action)
+    # The env is still usable.
+    env.step(np.zeros(4, np.float32))
+
+
+def test_accepted_actions_other_dtypes_and_out_of_range() -> None:
+    env = PickAndPlaceEnv()
+    env.reset(seed=0)
+    env.step([0, 0, 0, 1])
+    env.step(np.array([1e300, -1e300, 0.0, 0.0]))  # clipped, not turned into inf
+    env.step(np.zeros(8, np.float32)[::2])  # non-contiguous view
+    obs, *_ = env.step(np.full(4, 5.0, np.float32))
+    assert all(np.isfinite(v).all() for v in obs.values())
+
+
+def test_bad_vector_actions() -> None:
+    envs = PickAndPlaceVectorEnv(2)
+    envs.reset(seed=0)
+    with pytest.raises(InvalidActionError, match=r"shape \(2, 4\)"):
+        envs.step(np.zeros(4, np.float32))
+    bad = np.zeros((2, 4), np.float32)
+    bad[1, 3] = np.nan
+    with pytest.raises(InvalidActionError, match="environment 1"):
+        envs.step(bad)
+
+
+@pytest.mark.parametrize(
+    ("config", "match"),
+    [
+        ({"colour": "red"}, "unknown field `colour`"),
+        ({"success_threshold": -0.1}, "success_threshold"),
+        ({"control_mode": "teleport"}, "control_mode|unknown variant"),
+        ({"max_episode_steps": 0}, "max_episode_steps"),
+        ({"control_frequency": 30}, "control_frequency"),
+        ({"pick_region": {"low": [0.6, 0.0], "high": [0.4, -0.2]}}, "pick_region"),
+        ({"sim": {"solver": {"dt": 0.0}}}, "dt"),
+        ({"sim": {"cube": {"mass": -1.0}}}, "mass"),
+        ({"success_threshold": object()}, "not supported"),
+    ],
+)
+def test_bad_config(config: dict[str, object], match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        PickAndPlaceEnv(**config)
+    with pytest.raises(ConfigError, match=match):
+        PickAndPlaceVectorEnv(2, **config)
+
+
+def test_bad_vector_arguments() -> None:
+    with pytest.raises(ConfigError, match="num_envs"):
+        PickAndPlaceVectorEnv(0)
+    with pytest.raises(ConfigError, match="num_threads"):
+        PickAndPlaceVectorEnv(2, num_threads=0)
+    with pytest.raises(ConfigError, match="autoreset_mode"):
+        PickAndPlaceVectorEnv(2, autoreset_mode="sometimes")
+    with pytest.raises(ConfigError, match="render_mode"):
+        PickAndPlaceEnv(render_mode="ascii")
+
+
+def test_call_order() -> None:
+    env = PickAndPlaceEnv()
+    with pytest.raises(ResetNeededError, match="before the first reset"):
+        env.step(np.zeros(4, np.float32))
+    env.reset(seed=0)
+    env.close()
+    with pytest.raises(ResetNeededError, match="closed"):
+        env.step(np.zeros(4, np.float32))
+    with pytest.raises(ResetNeededError, match="closed"):
+        env.reset()
+    env.close()  # twice is fine
+
+
+@pytest.mark.parametrize("seed", [-1, 2**64, 1.5, "7", True])
+def test_bad_seeds(seed: object) -> None:
+    env = PickAndPlaceEnv()
+    with pytest.raises((InvalidArgumentError, gym.error.Error, TypeError)):
+        env.reset(seed=seed)  # type: ignore[arg-type]
+
+
+def test_robot_argument_errors() -> None:
+    env = PickAndPlaceEnv()
+    env.reset(seed=0)
+    robot = env.robot
+    with pytest.raises(InvalidArgumentError, match="unknown link `nope`"):
+        robot.link_state("nope")
+    with pytest.raises(InvalidArgumentError, match="unknown joint"):
+        robot.position_control("nope", 0.0)
+    with pytest.raises(InvalidArgumentError, match="out of range"):
+        robot.torque_control(99, 1.0)
+    with pytest.raises(InvalidArgumentError, match="must have 8 values"):
+        robot.set_joint_positions([0.0] * 3)
+    with pytest.raises(InvalidArgumentError, match="finite"):
+        robot.forward_kinematics([np.nan] * 8)
+    with pytest.raises(InvalidArgumentError, match="quaternion"):
+        robot.inverse_kinematics([0.5, 0.0, 0.3], [0.0, 0.0, 0.0, 0.0])
+    with pytest.raises(InvalidArgumentError, match="control mode"):
+        env._native.set_joint_control(0, "magic", 0.0)

@@ -1,0 +1,171 @@
+"""The single environment against Gymnasium's contract: checkers, spaces, determinism,
+time limit, compute_reward, pickling."""
+
+from __future__ import annotations
+
+import copy
+import pickle
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from conftest import random_actions
+from gymnasium.utils.env_checker import check_env
+
+import panda_rapier
+
+
+@pytest.mark.parametrize("env_id", panda_rapier.ENV_IDS)
+def test_gymnasium_check_env(env_id: str) -> None:
+    env = gym.make(env_id)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env.unwrapped, skip_render_check=True)
+    assert [str(w.message) for w in caught] == []
+    env.close()
+
+
+def test_env_ids_and_spaces() -> None:
+    assert panda_rapier.ENV_IDS == (
+        "panda_rapier/PickAndPlace-v0",
+        "panda_rapier/PickAndPlaceDense-v0",
+        "panda_rapier/PickAndPlaceJoints-v0",
+        "panda_rapier/PickAndPlaceJointsDense-v0",
+    )
+    ee = gym.make("panda_rapier/PickAndPlace-v0")
+    joints = gym.make("panda_rapier/PickAndPlaceJoints-v0")
+    assert ee.action_space.shape == (4,) and joints.action_space.shape == (8,)
+    assert ee.spec is not None and ee.spec.max_episode_steps == 50
+    space = ee.observation_space
+    assert isinstance(space, gym.spaces.Dict)
+    assert {k: s.shape for k, s in space.spaces.items()} == {
+        "achieved_goal": (3,),
+        "desired_goal": (3,),
+        "observation": (41,),
+    }
+    assert ee.unwrapped.dt == pytest.approx(0.04)
+    obs, info = ee.reset(seed=0)
+    assert space.contains(obs)
+    assert info["is_success"] is False and info["elapsed_steps"] == 0
+    np.testing.assert_array_equal(obs["desired_goal"], ee.unwrapped.goal.astype(np.float32))
+    assert panda_rapier.__version__ == "0.1.0"
+
+
+def rollout(env: gym.Env, seed: int, steps: int) -> list[np.ndarray]:
+    obs, _ = env.reset(seed=seed)
+    env.action_space.seed(seed)
+    trace = [np.concatenate([obs[k] for k in sorted(obs)])]
+    for _ in range(steps):
+        obs, reward, terminated, truncated, _ = env.step(env.action_space.sample())
+        trace.append(np.concatenate([obs[k] for k in sorted(obs)] + [np.float32([reward])]))
+        if terminated or truncated:
+            obs, _ = env.reset()
+            trace.append(np.concatenate([obs[k] for k in sorted(obs)]))
+    return trace
+
+
+@pytest.mark.parametrize("env_id", ["panda_rapier/PickAndPlace-v0", "panda_rapier/PickAndPlaceJointsDense-v0"])
+def test_equal_seeds_give_bit_identical_trajectories(env_id: str) -> None:
+    first = rollout(gym.make(env_id), seed=7, steps=120)
+    second = rollout(gym.make(env_id), seed=7, steps=120)
+    assert len(first) == len(second)
+    for a, b in zip(first, second, strict=True):
+        np.testing.assert_array_equal(a, b)
+    other = rollout(gym.make(env_id), seed=8, steps=5)
+    assert not np.array_equal(first[0], other[0])
+
+
+def test_time_limit_comes_from_gym_make() -> None:
+    env = gym.make("panda_rapier/PickAndPlace-v0", max_episode_steps=7)
+    env.reset(seed=1)
+    flags = [env.step(np.zeros(4, np.float32))[3] for _ in range(7)]
+    assert flags == [False] * 6 + [True]
+    direct = panda_rapier.PickAndPlaceEnv(max_episode_steps=3)
+    direct.reset(seed=1)
+    assert [direct.step(np.zeros(4, np.float32))[3] for _ in range(3)] == [False, False, True]
+    unlimited = panda_rapier.PickAndPlaceEnv()
+    unlimited.reset(seed=1)
+    assert not any(unlimited.step(np.zeros(4, np.float32))[3] for _ in range(60))
+
+
+@pytest.mark.parametrize("env_id", panda_rapier.ENV_IDS)
+def test_compute_reward_matches_step_reward(env_id: str, rng: np.random.Generator) -> None:
+    env = gym.make(env_id)
+    obs, _ = env.reset(seed=3)
+    achieved, desired, infos, rewards = [], [], [], []
+    for _ in range(60):
+        obs, reward, _, _, info = env.step(random_actions(rng, env.action_space.shape))
+        achieved.append(obs["achieved_goal"])
+        desired.append(obs["desired_goal"])
+        infos.append(info)
+        rewards.append(reward)
+        assert env.unwrapped.compute_reward(obs["achieved_goal"], obs["desired_goal"], info) == reward
+    batch = env.unwrapped.compute_reward(np.stack(achieved), np.stack(desired), infos)
+    assert batch.shape == (60,)
+    np.testing.assert_array_equal(batch, np.array(rewards))
+    # Relabelled goal: the cube's own position is a success.
+    relabelled = env.unwrapped.compute_reward(np.stack(achieved), np.stack(achieved), np.array(infos))
+    assert np.all(relabelled >= np.array(rewards))
+    # Leading shape is kept (n_envs, batch, 3).
+    shaped = env.unwrapped.compute_reward(
+        np.stack(achieved).reshape(6, 10, 3), np.stack(desired).reshape(6, 10, 3), np.array(infos).reshape(6, 10)
+    )
+    np.testing.assert_array_equal(shaped.reshape(-1), batch)
+
+
+def test_dense_compute_reward_needs_the_info() -> None:
+    env = gym.make("panda_rapier/PickAndPlaceDense-v0")
+    obs, _ = env.reset(seed=0)
+    with pytest.raises(panda_rapier.InvalidArgumentError, match="reward_reach"):
+        env.unwrapped.compute_reward(obs["achieved_goal"], obs["desired_goal"], {})
+    sparse = gym.make("panda_rapier/PickAndPlace-v0")
+    obs, _ = sparse.reset(seed=0)
+    assert sparse.unwrapped.compute_reward(obs["achieved_goal"], obs["desired_goal"], None) == -1.0
+
+
+def test_reset_options_override_the_draw() -> None:
+    env = gym.make("panda_rapier/PickAndPlace-v0")
+    obs, _ = env.reset(seed=0, options={"cube_position": [0.5, -0.1, 0.02], "goal": [0.5, 0.3, 0.12]})
+    np.testing.assert_allclose(obs["desired_goal"], [0.5, 0.3, 0.12], atol=1e-6)
+    np.testing.assert_allclose(obs["achieved_goal"][:2], [0.5, -0.1], atol=2e-3)
+    with pytest.raises(panda_rapier.InvalidArgumentError, match="unknown field"):
+        env.reset(options={"cube_colour": "red"})
+
+
+def test_pickle_and_deepcopy_round_trip() -> None:
+    env = gym.make("panda_rapier/PickAndPlaceDense-v0", success_threshold=0.04)
+    clone = pickle.loads(pickle.dumps(env))
+    duplicate = copy.deepcopy(env.unwrapped)
+    assert clone.unwrapped.config["success_threshold"] == 0.04
+    assert clone.unwrapped.config["reward_type"] == "dense"
+    for other in (clone, duplicate):
+        a, _ = env.reset(seed=11)
+        b, _ = other.reset(seed=11)
+        for key in a:
+            np.testing.assert_array_equal(a[key], b[key])
+        action = np.full(env.action_space.shape, 0.3, np.float32)
+        np.testing.assert_array_equal(env.step(action)[0]["observation"], other.step(action)[0]["observation"])
+
+
+def test_save_and_restore_state_continue_identically(rng: np.random.Generator) -> None:
+    env = panda_rapier.PickAndPlaceEnv()
+    env.reset(seed=5)
+    for _ in range(10):
+        env.step(random_actions(rng, (4,)))
+    state = env.save_state()
+    actions = [random_actions(rng, (4,)) for _ in range(15)]
+    first = [env.step(a)[0]["observation"] for a in actions]
+    env.restore_state(state)
+    second = [env.step(a)[0]["observation"] for a in actions]
+    for a, b in zip(first, second, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_config_passes_through_gym_make() -> None:
+    env = gym.make("panda_rapier/PickAndPlace-v0", control_frequency=50, success_threshold=0.03)
+    assert env.unwrapped.dt == pytest.approx(0.02)
+    assert env.unwrapped.config["success_threshold"] == 0.03
+    assert env.metadata["render_fps"] == 50
+    env = gym.make("panda_rapier/PickAndPlace-v0", render_mode="rgb_array")
+    assert env.render_mode == "rgb_array"
