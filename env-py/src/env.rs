@@ -103,9 +103,8 @@ impl NativeEnv {
     ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, PyDict>)> {
         let options: ResetOptions = match options_json {
             None => ResetOptions::default(),
-            Some(text) => serde_json::from_str(text).map_err(|e| {
-                invalid(py, "InvalidArgumentError", format!("reset options: {e}"))
-            })?,
+            Some(text) => serde_json::from_str(text)
+                .map_err(|e| invalid(py, "InvalidArgumentError", format!("reset options: {e}")))?,
         };
         let env = &mut self.env;
         detached(py, || env.reset(seed, &options).map(|_| ()))?
@@ -140,8 +139,8 @@ impl NativeEnv {
         }
         self.action.copy_from_slice(values);
         let Self { env, action } = self;
-        let transition = detached(py, || env.step(action))?
-            .map_err(|e| to_py(py, e, Blame::Action))?;
+        let transition =
+            detached(py, || env.step(action))?.map_err(|e| to_py(py, e, Blame::Action))?;
         let (observation, info) = self.step_result(py)?;
         Ok((
             observation,
@@ -288,22 +287,23 @@ impl NativeEnv {
         target_velocity: f64,
         max_force: Option<f64>,
     ) -> PyResult<()> {
-        let control = match mode {
-            "position" => JointControl::Position {
-                target,
-                target_velocity,
-                max_force,
-            },
-            "velocity" => JointControl::Velocity { target, max_force },
-            "torque" => JointControl::Torque(target),
-            other => {
-                return Err(invalid(
+        let control =
+            match mode {
+                "position" => JointControl::Position {
+                    target,
+                    target_velocity,
+                    max_force,
+                },
+                "velocity" => JointControl::Velocity { target, max_force },
+                "torque" => JointControl::Torque(target),
+                other => return Err(invalid(
                     py,
                     "InvalidArgumentError",
-                    format!("control mode must be 'position', 'velocity' or 'torque', got {other:?}"),
-                ))
-            }
-        };
+                    format!(
+                        "control mode must be 'position', 'velocity' or 'torque', got {other:?}"
+                    ),
+                )),
+            };
         let sim = self.env.simulation_mut();
         let result = if let Ok(name) = joint.extract::<String>() {
             sim.set_joint_control_by_name(&name, control)

@@ -24,7 +24,7 @@ impl NativeVecEnv {
         values: &[T],
     ) -> PyResult<Bound<'py, PyArray2<T>>> {
         let n = self.vec.num_envs();
-        Ok(PyArray1::from_slice(py, values).reshape([n, values.len() / n])?)
+        PyArray1::from_slice(py, values).reshape([n, values.len() / n])
     }
 }
 
@@ -44,15 +44,13 @@ impl NativeVecEnv {
             "next_step" => AutoresetMode::NextStep,
             "same_step" => AutoresetMode::SameStep,
             "disabled" => AutoresetMode::Disabled,
-            other => {
-                return Err(invalid(
-                    py,
-                    "ConfigError",
-                    format!(
-                        "autoreset_mode must be 'next_step', 'same_step' or 'disabled', got {other:?}"
-                    ),
-                ))
-            }
+            other => return Err(invalid(
+                py,
+                "ConfigError",
+                format!(
+                    "autoreset_mode must be 'next_step', 'same_step' or 'disabled', got {other:?}"
+                ),
+            )),
         };
         let vec = detached(py, || VecEnv::new(config, num_envs, num_threads, mode))?
             .map_err(|e| to_py(py, e, Blame::Config))?;

@@ -65,7 +65,9 @@ def rollout(env: gym.Env, seed: int, steps: int) -> list[np.ndarray]:
     return trace
 
 
-@pytest.mark.parametrize("env_id", ["panda_rapier/PickAndPlace-v0", "panda_rapier/PickAndPlaceJointsDense-v0"])
+@pytest.mark.parametrize(
+    "env_id", ["panda_rapier/PickAndPlace-v0", "panda_rapier/PickAndPlaceJointsDense-v0"]
+)
 def test_equal_seeds_give_bit_identical_trajectories(env_id: str) -> None:
     first = rollout(gym.make(env_id), seed=7, steps=120)
     second = rollout(gym.make(env_id), seed=7, steps=120)
@@ -100,16 +102,22 @@ def test_compute_reward_matches_step_reward(env_id: str, rng: np.random.Generato
         desired.append(obs["desired_goal"])
         infos.append(info)
         rewards.append(reward)
-        assert env.unwrapped.compute_reward(obs["achieved_goal"], obs["desired_goal"], info) == reward
+        assert (
+            env.unwrapped.compute_reward(obs["achieved_goal"], obs["desired_goal"], info) == reward
+        )
     batch = env.unwrapped.compute_reward(np.stack(achieved), np.stack(desired), infos)
     assert batch.shape == (60,)
     np.testing.assert_array_equal(batch, np.array(rewards))
     # Relabelled goal: the cube's own position is a success.
-    relabelled = env.unwrapped.compute_reward(np.stack(achieved), np.stack(achieved), np.array(infos))
+    relabelled = env.unwrapped.compute_reward(
+        np.stack(achieved), np.stack(achieved), np.array(infos)
+    )
     assert np.all(relabelled >= np.array(rewards))
     # Leading shape is kept (n_envs, batch, 3).
     shaped = env.unwrapped.compute_reward(
-        np.stack(achieved).reshape(6, 10, 3), np.stack(desired).reshape(6, 10, 3), np.array(infos).reshape(6, 10)
+        np.stack(achieved).reshape(6, 10, 3),
+        np.stack(desired).reshape(6, 10, 3),
+        np.array(infos).reshape(6, 10),
     )
     np.testing.assert_array_equal(shaped.reshape(-1), batch)
 
@@ -126,7 +134,9 @@ def test_dense_compute_reward_needs_the_info() -> None:
 
 def test_reset_options_override_the_draw() -> None:
     env = gym.make("panda_rapier/PickAndPlace-v0")
-    obs, _ = env.reset(seed=0, options={"cube_position": [0.5, -0.1, 0.02], "goal": [0.5, 0.3, 0.12]})
+    obs, _ = env.reset(
+        seed=0, options={"cube_position": [0.5, -0.1, 0.02], "goal": [0.5, 0.3, 0.12]}
+    )
     np.testing.assert_allclose(obs["desired_goal"], [0.5, 0.3, 0.12], atol=1e-6)
     np.testing.assert_allclose(obs["achieved_goal"][:2], [0.5, -0.1], atol=2e-3)
     with pytest.raises(panda_rapier.InvalidArgumentError, match="unknown field"):
@@ -145,7 +155,9 @@ def test_pickle_and_deepcopy_round_trip() -> None:
         for key in a:
             np.testing.assert_array_equal(a[key], b[key])
         action = np.full(env.action_space.shape, 0.3, np.float32)
-        np.testing.assert_array_equal(env.step(action)[0]["observation"], other.step(action)[0]["observation"])
+        np.testing.assert_array_equal(
+            env.step(action)[0]["observation"], other.step(action)[0]["observation"]
+        )
 
 
 def test_save_and_restore_state_continue_identically(rng: np.random.Generator) -> None:

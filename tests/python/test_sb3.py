@@ -36,7 +36,7 @@ def test_make_vec_env_conventions() -> None:
     for _ in range(3):
         _, _, dones, infos = venv.step(zeros)
         assert not dones.any() and "terminal_observation" not in infos[0]
-    obs, rewards, dones, infos = venv.step(zeros)
+    obs, _rewards, dones, infos = venv.step(zeros)
     assert dones.all()
     for info in infos:
         assert info["TimeLimit.truncated"] is True
@@ -45,7 +45,9 @@ def test_make_vec_env_conventions() -> None:
         assert isinstance(info["is_success"], bool)
     # The observation returned is the new episode's first one.
     assert venv.reset_infos[0]["elapsed_steps"] == 0
-    assert not np.array_equal(infos[0]["terminal_observation"]["observation"], obs["observation"][0])
+    assert not np.array_equal(
+        infos[0]["terminal_observation"]["observation"], obs["observation"][0]
+    )
     venv.close()
     with pytest.raises(panda_rapier.ResetNeededError, match="closed"):
         venv.step(zeros)
@@ -56,13 +58,19 @@ def test_env_method_compute_reward_is_batched() -> None:
     venv.reset()
     achieved, desired, infos, rewards = [], [], [], []
     for _ in range(10):
-        obs, reward, _, info = venv.step(np.random.default_rng(0).uniform(-1, 1, (2, 4)).astype(np.float32))
+        obs, reward, _, info = venv.step(
+            np.random.default_rng(0).uniform(-1, 1, (2, 4)).astype(np.float32)
+        )
         achieved.append(obs["achieved_goal"])
         desired.append(obs["desired_goal"])
         infos.extend(info)
         rewards.append(reward)
     batch = venv.env_method(
-        "compute_reward", np.concatenate(achieved), np.concatenate(desired), np.array(infos), indices=[0]
+        "compute_reward",
+        np.concatenate(achieved),
+        np.concatenate(desired),
+        np.array(infos),
+        indices=[0],
     )[0]
     np.testing.assert_array_equal(batch, np.concatenate(rewards))
 
@@ -70,11 +78,13 @@ def test_env_method_compute_reward_is_batched() -> None:
 def test_seeded_vec_env_gives_the_same_rollouts_twice() -> None:
     traces = []
     for _ in range(2):
-        venv = make_vec_env("panda_rapier/PickAndPlaceJoints-v0", n_envs=2, seed=123, max_episode_steps=5)
+        venv = make_vec_env(
+            "panda_rapier/PickAndPlaceJoints-v0", n_envs=2, seed=123, max_episode_steps=5
+        )
         rng = np.random.default_rng(9)
         trace = [venv.reset()["observation"]]
         for _ in range(12):
-            obs, rewards, dones, infos = venv.step(rng.uniform(-1, 1, (2, 8)).astype(np.float32))
+            obs, _rewards, _dones, _infos = venv.step(rng.uniform(-1, 1, (2, 8)).astype(np.float32))
             trace.append(obs["observation"])
         traces.append(trace)
     for a, b in zip(*traces, strict=True):
@@ -83,7 +93,9 @@ def test_seeded_vec_env_gives_the_same_rollouts_twice() -> None:
 
 def test_ppo_learns_on_the_native_vec_env() -> None:
     venv = make_vec_env("panda_rapier/PickAndPlaceDense-v0", n_envs=4, seed=0)
-    model = PPO("MultiInputPolicy", venv, n_steps=512, batch_size=256, n_epochs=2, seed=0, device="cpu")
+    model = PPO(
+        "MultiInputPolicy", venv, n_steps=512, batch_size=256, n_epochs=2, seed=0, device="cpu"
+    )
     model.learn(total_timesteps=2048)
     assert model.num_timesteps >= 2048
     assert len(model.ep_info_buffer) >= 4 * 2048 // (4 * 50)
@@ -130,6 +142,6 @@ def test_subproc_vec_env_over_gym_make(start_method: str) -> None:
     obs = venv.reset()
     assert obs["observation"].shape == (2, 41)
     for _ in range(3):
-        obs, rewards, dones, infos = venv.step(np.zeros((2, 4), np.float32))
+        obs, rewards, _dones, _infos = venv.step(np.zeros((2, 4), np.float32))
     assert rewards.shape == (2,)
     venv.close()

@@ -33,7 +33,9 @@ def test_make_vec_returns_the_native_vector_env() -> None:
     envs.close()
 
 
-def test_env_i_matches_a_single_env_and_thread_count_does_not_matter(rng: np.random.Generator) -> None:
+def test_env_i_matches_a_single_env_and_thread_count_does_not_matter(
+    rng: np.random.Generator,
+) -> None:
     actions = [random_actions(rng, (4, 4)) for _ in range(30)]
     traces = []
     for threads in (1, 2):
@@ -58,9 +60,9 @@ def test_next_step_autoreset() -> None:
     zeros = np.zeros((2, 4), np.float32)
     for _ in range(2):
         assert not envs.step(zeros)[3].any()
-    obs, rewards, terminated, truncated, info = envs.step(zeros)
+    _, _, _, truncated, info = envs.step(zeros)
     assert truncated.all() and info["elapsed_steps"].tolist() == [3, 3]
-    obs, rewards, terminated, truncated, info = envs.step(zeros)
+    _obs, rewards, _terminated, truncated, info = envs.step(zeros)
     assert rewards.tolist() == [0.0, 0.0] and not truncated.any()
     assert info["elapsed_steps"].tolist() == [0, 0]
 
@@ -106,7 +108,9 @@ def test_per_env_seeds_and_bad_seeds() -> None:
         envs.reset(seed=-1)
 
 
-def _step_in_child(envs: PickAndPlaceVectorEnv, actions: np.ndarray, queue: multiprocessing.Queue) -> None:
+def _step_in_child(
+    envs: PickAndPlaceVectorEnv, actions: np.ndarray, queue: multiprocessing.Queue
+) -> None:
     queue.put(envs.step(actions)[0]["observation"])
 
 

@@ -505,7 +505,10 @@ mod tests {
                 Box::new(|c| c.control_frequency = 30.0),
             ),
             ("control_frequency", Box::new(|c| c.control_frequency = 0.0)),
-            ("max_episode_steps", Box::new(|c| c.max_episode_steps = Some(0))),
+            (
+                "max_episode_steps",
+                Box::new(|c| c.max_episode_steps = Some(0)),
+            ),
             (
                 "success_threshold",
                 Box::new(|c| c.success_threshold = -0.1),

@@ -79,7 +79,9 @@ class PickAndPlaceEnv(gym.Env[dict[str, np.ndarray], np.ndarray], EzPickle):
     def __init__(self, render_mode: str | None = None, **config: Any) -> None:
         EzPickle.__init__(self, render_mode=render_mode, **config)
         if render_mode is not None and render_mode not in RENDER_MODES:
-            raise ConfigError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
+            raise ConfigError(
+                f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}"
+            )
         self.render_mode = render_mode
         # gym.make keeps time with a TimeLimit wrapper; the env counts only when asked to.
         config.setdefault("max_episode_steps", None)
@@ -120,9 +122,7 @@ class PickAndPlaceEnv(gym.Env[dict[str, np.ndarray], np.ndarray], EzPickle):
         flat, info = self._native.reset(native_seed, options_json)
         return _common.split_observation(flat), info
 
-    def step(
-        self, action: Any
-    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         flat, reward, terminated, truncated, info = self._native.step(
             _common.as_actions(action, self._action_shape)
         )

@@ -74,9 +74,13 @@ class Robot:
     ) -> None:
         """Drives ``joint`` (index or name) to ``target`` with its motor, at most ``max_force``
         (default: the joint's effort limit)."""
-        self._native.set_joint_control(joint, "position", float(target), float(target_velocity), max_force)
+        self._native.set_joint_control(
+            joint, "position", float(target), float(target_velocity), max_force
+        )
 
-    def velocity_control(self, joint: int | str, target: float, *, max_force: float | None = None) -> None:
+    def velocity_control(
+        self, joint: int | str, target: float, *, max_force: float | None = None
+    ) -> None:
         """Drives ``joint`` at ``target`` velocity."""
         self._native.set_joint_control(joint, "velocity", float(target), 0.0, max_force)
 

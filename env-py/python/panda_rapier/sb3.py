@@ -129,7 +129,9 @@ class PandaRapierVecEnv(VecEnv):
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = _common.as_actions(actions, self._actions_shape, "actions")
 
-    def step_wait(self) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, list[dict[str, Any]]]:
+    def step_wait(
+        self,
+    ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, list[dict[str, Any]]]:
         if self._actions is None:
             raise InvalidArgumentError("step_wait() called without step_async()")
         flat, rewards, terminated, truncated = self._native.step(self._actions)
@@ -171,7 +173,11 @@ class PandaRapierVecEnv(VecEnv):
             setattr(self._sub_envs[i], attr_name, value)
 
     def env_method(
-        self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
+        self,
+        method_name: str,
+        *method_args: Any,
+        indices: VecEnvIndices = None,
+        **method_kwargs: Any,
     ) -> list[Any]:
         return [
             getattr(self._sub_envs[i], method_name)(*method_args, **method_kwargs)

@@ -16,7 +16,6 @@ from ._native import NativeVecEnv
 from .env import RENDER_MODES
 from .errors import ConfigError, InvalidArgumentError
 
-
 _NATIVE_MODES = {
     AutoresetMode.NEXT_STEP: "next_step",
     AutoresetMode.SAME_STEP: "same_step",
@@ -69,7 +68,9 @@ class PickAndPlaceVectorEnv(VectorEnv):
         ):
             raise ConfigError(f"num_threads must be an int >= 1 or None, got {num_threads!r}")
         if render_mode is not None and render_mode not in RENDER_MODES:
-            raise ConfigError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
+            raise ConfigError(
+                f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}"
+            )
         mode = _autoreset_mode(autoreset_mode)
         self._native: Any = NativeVecEnv(
             _common.config_json(config),
@@ -157,9 +158,17 @@ class PickAndPlaceVectorEnv(VectorEnv):
             ended = self._native.has_final_observation()
             if ended.any():
                 infos = self._same_step_infos(infos, ended)
-        return _common.split_observation(flat), rewards, terminated, truncated, self._with_masks(infos)
+        return (
+            _common.split_observation(flat),
+            rewards,
+            terminated,
+            truncated,
+            self._with_masks(infos),
+        )
 
-    def _same_step_infos(self, step_infos: dict[str, np.ndarray], ended: np.ndarray) -> dict[str, Any]:
+    def _same_step_infos(
+        self, step_infos: dict[str, np.ndarray], ended: np.ndarray
+    ) -> dict[str, Any]:
         """Gymnasium's same-step layout: rows that ended report the new episode's reset info,
         with the ending step's observation and info under ``final_obs`` / ``final_info``."""
         reset_infos = self._native.infos("reset")

@@ -1,0 +1,54 @@
+"""The README's Python examples and the scripts in examples/ run as documented (tiny budgets)."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("stable_baselines3")
+pytest.importorskip("sb3_contrib")
+pytest.importorskip("tqdm")
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def run(*args: str | Path) -> str:
+    result = subprocess.run(
+        [sys.executable, *map(str, args)], capture_output=True, text=True, timeout=600, check=False
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    return result.stdout
+
+
+def readme_python_blocks() -> list[str]:
+    text = (ROOT / "README.md").read_text()
+    return re.findall(r"```python\n(.*?)```", text, flags=re.DOTALL)
+
+
+def test_readme_has_python_examples() -> None:
+    assert len(readme_python_blocks()) >= 3
+
+
+@pytest.mark.parametrize("index", range(len(readme_python_blocks())))
+def test_readme_python_example_runs(index: int, tmp_path: Path) -> None:
+    script = tmp_path / f"readme_{index}.py"
+    script.write_text(readme_python_blocks()[index])
+    subprocess.run([sys.executable, script], cwd=tmp_path, check=True, timeout=600)
+
+
+def test_training_scripts_save_checkpoints_that_evaluate_loads(tmp_path: Path) -> None:
+    her = tmp_path / "her"
+    run(ROOT / "examples/train_her.py", "--algo", "tqc", "--small", "--timesteps", "400",
+        "--learning-starts", "100", "--n-envs", "2", "--no-progress", "--out", her)  # fmt: skip
+    ppo = tmp_path / "ppo"
+    run(ROOT / "examples/train_ppo.py", "--timesteps", "512", "--n-envs", "4", "--no-progress",
+        "--out", ppo)  # fmt: skip
+    for out in (her, ppo):
+        assert (out / "model.zip").is_file() and (out / "run.json").is_file()
+        assert list((out / "tensorboard").rglob("events.out.tfevents.*"))
+        report = run(ROOT / "examples/evaluate.py", out / "model.zip", "--episodes", "4")
+        assert re.search(r"success rate \d\.\d{3} \(95 % CI", report), report
