@@ -287,23 +287,24 @@ impl NativeEnv {
         target_velocity: f64,
         max_force: Option<f64>,
     ) -> PyResult<()> {
-        let control =
-            match mode {
-                "position" => JointControl::Position {
-                    target,
-                    target_velocity,
-                    max_force,
-                },
-                "velocity" => JointControl::Velocity { target, max_force },
-                "torque" => JointControl::Torque(target),
-                other => return Err(invalid(
+        let control = match mode {
+            "position" => JointControl::Position {
+                target,
+                target_velocity,
+                max_force,
+            },
+            "velocity" => JointControl::Velocity { target, max_force },
+            "torque" => JointControl::Torque(target),
+            other => {
+                return Err(invalid(
                     py,
                     "InvalidArgumentError",
                     format!(
                         "control mode must be 'position', 'velocity' or 'torque', got {other:?}"
                     ),
-                )),
-            };
+                ))
+            }
+        };
         let sim = self.env.simulation_mut();
         let result = if let Ok(name) = joint.extract::<String>() {
             sim.set_joint_control_by_name(&name, control)

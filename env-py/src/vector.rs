@@ -44,13 +44,15 @@ impl NativeVecEnv {
             "next_step" => AutoresetMode::NextStep,
             "same_step" => AutoresetMode::SameStep,
             "disabled" => AutoresetMode::Disabled,
-            other => return Err(invalid(
-                py,
-                "ConfigError",
-                format!(
+            other => {
+                return Err(invalid(
+                    py,
+                    "ConfigError",
+                    format!(
                     "autoreset_mode must be 'next_step', 'same_step' or 'disabled', got {other:?}"
                 ),
-            )),
+                ))
+            }
         };
         let vec = detached(py, || VecEnv::new(config, num_envs, num_threads, mode))?
             .map_err(|e| to_py(py, e, Blame::Config))?;
