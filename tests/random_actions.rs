@@ -13,6 +13,7 @@ fn random_actions_stay_physical() {
     for mode in [ControlMode::Ee, ControlMode::Joints] {
         let config = EnvConfig {
             control_mode: mode,
+            max_episode_steps: Some(50),
             ..EnvConfig::default()
         };
         let n = 16;

@@ -2,7 +2,7 @@
 //! nalgebra. They agree with the physics engine's link poses (see the `physics` tests) but never
 //! touch it, so a policy or a user can call them on any `q`.
 
-use nalgebra::{Isometry3, Matrix6, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{Isometry3, Matrix6, Rotation3, UnitQuaternion, Vector3, Vector6};
 
 use crate::error::{Error, Result};
 use crate::model::{JointType, RobotModel};
@@ -63,6 +63,20 @@ impl IkSolution {
             })
         }
     }
+}
+
+/// `orientation` turned so its z axis points straight down, keeping its heading.
+pub fn pointing_down(orientation: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+    let x = orientation * Vector3::x();
+    let heading = Vector3::new(x.x, x.y, 0.0);
+    let x = if heading.norm() > 1e-9 {
+        heading.normalize()
+    } else {
+        Vector3::x()
+    };
+    let z = -Vector3::z();
+    let y = z.cross(&x);
+    UnitQuaternion::from_rotation_matrix(&Rotation3::from_basis_unchecked(&[x, y, z]))
 }
 
 impl RobotModel {

@@ -23,7 +23,7 @@ pub mod vector;
 
 pub use config::{CubeConfig, MotorConfig, PlatformConfig, SimConfig, SolverConfig, PANDA_READY};
 pub use error::{Error, Result};
-pub use kinematics::{IkOptions, IkReport, IkSolution, IkWorkspace};
+pub use kinematics::{pointing_down, IkOptions, IkReport, IkSolution, IkWorkspace};
 pub use model::{JointInfo, JointType, LinkInfo, Mimic, RobotModel, Tcp};
 pub use physics::{
     BodyState, CubeContacts, CubeTouch, JointControl, JointState, LinkState, SimSnapshot,

@@ -12,10 +12,17 @@ mod env;
 mod errors;
 mod vector;
 
+/// The default environment configuration as JSON (every field filled in).
+#[pyfunction]
+fn default_config_json() -> String {
+    serde_json::to_string(&panda_rapier_core::EnvConfig::default()).unwrap_or_default()
+}
+
 /// The native module.
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(default_config_json, m)?)?;
     m.add_class::<env::NativeEnv>()?;
     m.add_class::<env::NativeSnapshot>()?;
     m.add_class::<vector::NativeVecEnv>()?;

@@ -36,7 +36,7 @@ def test_env_ids_and_spaces() -> None:
     ee = gym.make("panda_rapier/PickAndPlace-v0")
     joints = gym.make("panda_rapier/PickAndPlaceJoints-v0")
     assert ee.action_space.shape == (4,) and joints.action_space.shape == (8,)
-    assert ee.spec is not None and ee.spec.max_episode_steps == 50
+    assert ee.spec is not None and ee.spec.max_episode_steps == 70 == panda_rapier.MAX_EPISODE_STEPS
     space = ee.observation_space
     assert isinstance(space, gym.spaces.Dict)
     assert {k: s.shape for k, s in space.spaces.items()} == {

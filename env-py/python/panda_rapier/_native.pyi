@@ -7,6 +7,8 @@ import numpy.typing as npt
 
 __version__: str
 
+def default_config_json() -> str: ...
+
 _F32 = npt.NDArray[np.float32]
 _F64 = npt.NDArray[np.float64]
 _Bool = npt.NDArray[np.bool_]

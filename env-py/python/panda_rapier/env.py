@@ -54,9 +54,15 @@ class PickAndPlaceEnv(gym.Env[dict[str, np.ndarray], np.ndarray], EzPickle):
 
     ## Episode End
     Terminated on success only with ``terminate_on_success=True``. Truncated by the
-    ``TimeLimit`` that ``gym.make`` adds (50 steps at 25 Hz), or, when constructed directly,
-    after ``max_episode_steps`` if given; and at once when the physics becomes unstable
-    (``info["physics_unstable"]``, after which ``step`` raises until ``reset``).
+    ``TimeLimit`` that ``gym.make`` adds (70 steps at 25 Hz, 2.8 s), or, when constructed
+    directly, after ``max_episode_steps`` if given; and at once when the physics becomes
+    unstable (``info["physics_unstable"]``, after which ``step`` raises until ``reset``).
+
+    Why 70 and not the 50 of Fetch and panda-gym: the arm is torque-limited, its joint targets
+    respect the URDF velocity limits, and joint actions move a joint at most 0.05 rad per step.
+    The scripted baseline places the cube in 99.3 % (ee) and 99.7 % (joints) of 1,000 seeded
+    episodes within 70 steps (mean 37 and 53 steps), but only 96.8 % (ee) and 25.2 % (joints)
+    within 50.
 
     ## Arguments
     Every field of the configuration (see the core's ``EnvConfig``) as a keyword argument,

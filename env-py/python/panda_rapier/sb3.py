@@ -210,7 +210,7 @@ def make_vec_env(
     **config: Any,
 ) -> PandaRapierVecEnv:
     """A :class:`PandaRapierVecEnv` for a registered id (``panda_rapier.ENV_IDS``), with the
-    id's options (and its 50-step time limit) overridden by ``config``.
+    id's options (and its time limit, 70 steps) overridden by ``config``.
 
     With ``seed``, environment ``i``'s first episode is seeded with ``seed + i`` (as
     stable-baselines3's own ``make_vec_env``); the same seed gives the same rollouts.

@@ -1,0 +1,49 @@
+//! Prints what the scripted policy sees and does in one seeded episode, step by step.
+//!
+//! `cargo run --release --example scripted_trace -- [seed] [ee|joints] [max_episode_steps] [env_index]`
+
+use panda_rapier::policies::ScriptedPolicy;
+use panda_rapier::task::{ControlMode, EnvConfig, PickAndPlaceEnv, ResetOptions};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let seed: u64 = args.first().map_or(Ok(0), |s| s.parse())?;
+    let mode = match args.get(1).map(String::as_str) {
+        Some("joints") => ControlMode::Joints,
+        _ => ControlMode::Ee,
+    };
+    let limit: u32 = args.get(2).map_or(Ok(50), |s| s.parse())?;
+    let config = EnvConfig {
+        control_mode: mode,
+        max_episode_steps: Some(limit),
+        ..EnvConfig::default()
+    };
+    let index: u64 = args.get(3).map_or(Ok(0), |s| s.parse())?;
+    let mut env = PickAndPlaceEnv::with_index(config.clone(), index)?;
+    let mut policy = ScriptedPolicy::new(&config)?;
+    env.reset(Some(seed), &ResetOptions::default())?;
+    let mut action = vec![0.0; policy.action_dim()];
+    let layout = *env.layout();
+    for step in 1..=limit {
+        let obs = env.observation().to_vec();
+        let phase = policy.act(&obs, &mut action)?;
+        let t = env.step(&action)?;
+        let get = |name: &str| obs[layout.slot(name).unwrap()].to_vec();
+        println!(
+            "{step:3} {:9} a {:5.2?} tcp {:6.3?} cube {:6.3?} rel {:6.3?} w {:.4} grasp {} placed {} d {:.3}",
+            phase.as_str(),
+            action,
+            get("tcp_position"),
+            get("cube_position"),
+            get("cube_relative_position"),
+            get("gripper_width")[0],
+            t.info.is_grasped,
+            t.info.is_placed,
+            t.info.goal_distance
+        );
+        if t.truncated || t.terminated {
+            break;
+        }
+    }
+    Ok(())
+}
