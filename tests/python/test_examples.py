@@ -43,7 +43,7 @@ def test_readme_python_example_runs(index: int, tmp_path: Path) -> None:
 def test_training_scripts_save_checkpoints_that_evaluate_loads(tmp_path: Path) -> None:
     her = tmp_path / "her"
     run(ROOT / "examples/train_her.py", "--algo", "tqc", "--small", "--timesteps", "400",
-        "--learning-starts", "100", "--n-envs", "2", "--no-progress", "--out", her)  # fmt: skip
+        "--learning-starts", "200", "--n-envs", "2", "--no-progress", "--out", her)  # fmt: skip
     ppo = tmp_path / "ppo"
     run(ROOT / "examples/train_ppo.py", "--timesteps", "512", "--n-envs", "4", "--no-progress",
         "--out", ppo)  # fmt: skip
