@@ -42,7 +42,7 @@ impl NativeEnv {
         ))
     }
 
-    fn refreshed<'py>(&mut self, py: Python<'py>) -> PyResult<()> {
+    fn refreshed(&mut self, py: Python<'_>) -> PyResult<()> {
         self.env
             .refresh()
             .map(|_| ())

@@ -87,8 +87,8 @@ impl NativeVecEnv {
 
     /// Control period (s).
     #[getter]
-    fn dt(&self) -> PyResult<f64> {
-        Ok(self.vec.env(0).map(|e| e.dt()).unwrap_or_default())
+    fn dt(&self) -> f64 {
+        self.vec.env(0).map(|e| e.dt()).unwrap_or_default()
     }
 
     /// The full configuration as JSON (defaults filled in).

@@ -148,6 +148,12 @@ impl Slots {
     }
 }
 
+/// The three values of an observation slot, as a vector.
+fn vector_at(observation: &[f32], slot: &std::ops::Range<usize>) -> Vector3<f64> {
+    let o = &observation[slot.start..slot.start + 3];
+    Vector3::new(o[0] as f64, o[1] as f64, o[2] as f64)
+}
+
 /// What the controller decided for one observation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Decision {
@@ -259,10 +265,7 @@ impl ScriptedPolicy {
         self.check(observation)?;
         let s = &self.slots;
         let p = &self.params;
-        let v3 = |r: &std::ops::Range<usize>| {
-            let o = &observation[r.clone()];
-            Vector3::new(o[0] as f64, o[1] as f64, o[2] as f64)
-        };
+        let v3 = |r: &std::ops::Range<usize>| vector_at(observation, r);
         let cube = v3(&s.achieved);
         let goal = v3(&s.desired);
         let tcp = v3(&s.tcp);
@@ -277,7 +280,9 @@ impl ScriptedPolicy {
 
         let around_cube =
             horizontal(relative) < p.in_hand_tolerance && relative.z.abs() < p.in_hand_height;
-        let squeezing = width < 0.9 * self.open_width && width > 0.5 * self.cube_half;
+        // Fingers short of fully open: closing, squeezing something, or shut on nothing.
+        let hand_closed = width < 0.9 * self.open_width;
+        let squeezing = hand_closed && width > 0.5 * self.cube_half;
         let held = around_cube && squeezing && finger_speed < 0.02;
         let goal_surface = self.config.surface_height(goal.x, goal.y);
         let air_goal = goal.z > goal_surface + self.cube_half + 0.01;
@@ -336,18 +341,17 @@ impl ScriptedPolicy {
         }
         if cube_to_goal < self.config.success_threshold && !air_goal {
             // Placed (or being let go): open, then back off upwards.
-            if width < 0.9 * self.open_width && around_cube {
+            if hand_closed && around_cube {
                 return Ok(decision(Phase::Release, tcp, 1.0, 1.0));
             }
             let up = Vector3::new(tcp.x, tcp.y, goal.z + p.retreat_height);
             return Ok(decision(Phase::Retreat, up, 1.0, 1.0));
         }
-        let misalignment = horizontal(tcp - cube);
+        let misalignment = horizontal(relative);
         let at_cube_height = tcp.z - cube.z < p.in_hand_tolerance;
-        let closing = width < 0.9 * self.open_width;
         let settled = tcp_speed < p.settle_speed;
         let centred = misalignment < p.in_hand_tolerance - 0.01;
-        if around_cube && (closing || (centred && at_cube_height && settled)) {
+        if around_cube && (hand_closed || (centred && at_cube_height && settled)) {
             // Squeeze with the hand held still: a hand still moving, or chasing the cube while
             // the fingers push it, shoves the cube out of the grasp.
             return Ok(decision(Phase::Close, tcp, 0.0, -1.0));
@@ -356,7 +360,7 @@ impl ScriptedPolicy {
             // In place but still moving: let the hand come to rest over the cube.
             return Ok(decision(Phase::Descend, cube, 1.0, 1.0));
         }
-        if closing {
+        if hand_closed {
             // A closed hand away from the cube (a missed or lost grasp): open it, rising to
             // the approach height while it opens.
             let up = Vector3::new(tcp.x, tcp.y, tcp.z.max(cube.z + p.hover_height));
@@ -388,13 +392,9 @@ impl ScriptedPolicy {
                 got: action.len(),
             });
         }
-        let read = |r: &std::ops::Range<usize>| {
-            let o = &observation[r.clone()];
-            Vector3::new(o[0] as f64, o[1] as f64, o[2] as f64)
-        };
-        let tcp = read(&self.slots.tcp);
+        let tcp = vector_at(observation, &self.slots.tcp);
         let lead = self.params.velocity_lead / self.config.control_frequency;
-        let ahead = tcp + read(&self.slots.tcp_velocity) * lead;
+        let ahead = tcp + vector_at(observation, &self.slots.tcp_velocity) * lead;
         let ee_step = self.config.ee_step;
         let limit = decision.speed;
         let gain = decision.gain;
@@ -487,9 +487,8 @@ impl ScriptedPolicy {
 
     /// Positions of the finger joints among the observed joints (those driven by the
     /// gripper dof and its mimic).
-    fn finger_slots(&self) -> impl Iterator<Item = usize> + '_ {
-        let n = self.slots.joint_positions.len();
-        (self.arm_dofs.len()..n).filter(move |&i| i < n)
+    fn finger_slots(&self) -> std::ops::Range<usize> {
+        self.arm_dofs.len()..self.slots.joint_positions.len()
     }
 
     /// Whether the cube, moved sideways by `(dx, dy)`, keeps its bottom `carry_clearance`

@@ -176,6 +176,39 @@ def context_columns(info: Any, n: int) -> tuple[np.ndarray, ...]:
     return tuple(columns)
 
 
+class NativeBacked:
+    """What every environment class shares about its native object: ``dt``, ``config`` and the
+    batched ``compute_reward``. Subclasses call :meth:`_bind_native` in ``__init__``."""
+
+    _native: Any
+    _config: dict[str, Any]
+    _dense: bool
+
+    def _bind_native(self, native: Any) -> None:
+        self._native = native
+        self._config = json.loads(native.config_json())
+        self._dense = self._config["reward_type"] == "dense"
+
+    @property
+    def dt(self) -> float:
+        """Control period in seconds (one ``step``)."""
+        return float(self._native.dt)
+
+    @property
+    def config(self) -> dict[str, Any]:
+        """The full configuration, defaults filled in (a copy)."""
+        return json.loads(json.dumps(self._config))
+
+    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> Any:
+        """The reward the environment gives, recomputed from goals, batched over any leading
+        shape (a float for single goals), for hindsight experience replay.
+
+        ``info`` is a step's info dict, a dict of arrays, or a sequence / array of info dicts
+        (what ``HerReplayBuffer`` passes); the sparse reward does not read it.
+        """
+        return compute_reward(self._native, achieved_goal, desired_goal, info, self._dense)
+
+
 class Closed:
     """Stands in for the native object after ``close()``: any use raises."""
 

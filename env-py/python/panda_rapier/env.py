@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from typing import Any
 
 import gymnasium as gym
@@ -17,7 +16,7 @@ from .robot import Robot
 RENDER_MODES = ("human", "rgb_array")
 
 
-class PickAndPlaceEnv(gym.Env[dict[str, np.ndarray], np.ndarray], EzPickle):
+class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray], EzPickle):
     """A Franka Panda picks a cube off the floor and places it on a platform.
 
     ## Description
@@ -91,24 +90,12 @@ class PickAndPlaceEnv(gym.Env[dict[str, np.ndarray], np.ndarray], EzPickle):
         self.render_mode = render_mode
         # gym.make keeps time with a TimeLimit wrapper; the env counts only when asked to.
         config.setdefault("max_episode_steps", None)
-        self._native: Any = NativeEnv(_common.config_json(config), 0)
-        self._config: dict[str, Any] = json.loads(self._native.config_json())
-        self._dense = self._config["reward_type"] == "dense"
+        self._bind_native(NativeEnv(_common.config_json(config), 0))
         self.observation_space = _common.observation_space(self._native.observation_dim)
         self.action_space = _common.action_space(self._native.action_dim)
         self._action_shape = (int(self._native.action_dim),)
         self.metadata = {**type(self).metadata, "render_fps": round(1.0 / self._native.dt)}
         self.robot = Robot(self)
-
-    @property
-    def dt(self) -> float:
-        """Control period in seconds (one ``step``)."""
-        return float(self._native.dt)
-
-    @property
-    def config(self) -> dict[str, Any]:
-        """The full configuration, defaults filled in (a copy)."""
-        return json.loads(json.dumps(self._config))
 
     @property
     def goal(self) -> np.ndarray:
@@ -133,15 +120,6 @@ class PickAndPlaceEnv(gym.Env[dict[str, np.ndarray], np.ndarray], EzPickle):
             _common.as_actions(action, self._action_shape)
         )
         return _common.split_observation(flat), reward, terminated, truncated, info
-
-    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> Any:
-        """The reward the environment gives, recomputed from goals, batched over any leading
-        shape (a float for single goals), for hindsight experience replay.
-
-        ``info`` is a step's info dict, a dict of arrays, or a sequence / array of info dicts
-        (what ``HerReplayBuffer`` passes); the sparse reward does not read it.
-        """
-        return _common.compute_reward(self._native, achieved_goal, desired_goal, info, self._dense)
 
     def save_state(self) -> Any:
         """An opaque copy of the whole state (physics, random stream, goal, clock)."""

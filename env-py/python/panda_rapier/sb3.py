@@ -11,7 +11,6 @@ Needs the ``sb3`` extra (``pip install "panda-rapier[sb3]"``)::
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Iterable, Sequence
 from typing import Any
@@ -58,7 +57,7 @@ class _SubEnv:
         return self._owner.compute_reward(achieved_goal, desired_goal, info)
 
 
-class PandaRapierVecEnv(VecEnv):
+class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
     """``num_envs`` pick-and-place environments stepped in Rust, with stable-baselines3's
     conventions: same-step reset with ``infos[i]["terminal_observation"]``,
     ``infos[i]["TimeLimit.truncated"]``, ``infos[i]["is_success"]`` and, when an episode ends,
@@ -78,14 +77,14 @@ class PandaRapierVecEnv(VecEnv):
     ) -> None:
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
             raise ConfigError(f"num_envs must be an int >= 1, got {num_envs!r}")
-        self._native: Any = NativeVecEnv(
-            _common.config_json(config),
-            int(num_envs),
-            None if num_threads is None else int(num_threads),
-            "same_step",
+        self._bind_native(
+            NativeVecEnv(
+                _common.config_json(config),
+                int(num_envs),
+                None if num_threads is None else int(num_threads),
+                "same_step",
+            )
         )
-        self._config: dict[str, Any] = json.loads(self._native.config_json())
-        self._dense = self._config["reward_type"] == "dense"
         self.spec = spec
         self._sub_envs = [_SubEnv(self) for _ in range(int(num_envs))]
         super().__init__(
@@ -100,16 +99,6 @@ class PandaRapierVecEnv(VecEnv):
         self._start_time = time.time()
 
     @property
-    def dt(self) -> float:
-        """Control period in seconds."""
-        return float(self._native.dt)
-
-    @property
-    def config(self) -> dict[str, Any]:
-        """The full configuration, defaults filled in (a copy)."""
-        return json.loads(json.dumps(self._config))
-
-    @property
     def num_threads(self) -> int:
         """Threads of the pool stepping the environments."""
         return int(self._native.num_threads)
@@ -121,7 +110,7 @@ class PandaRapierVecEnv(VecEnv):
         flat = self._native.reset(seeds, None)
         self._reset_seeds()
         self._reset_options()
-        self.reset_infos = _rows(self._native.infos("step"), self.num_envs)
+        self.reset_infos = _rows(self._native.infos("step"))
         self._episode_returns[:] = 0.0
         self._episode_lengths[:] = 0
         return _common.split_observation(flat)
@@ -137,12 +126,12 @@ class PandaRapierVecEnv(VecEnv):
         flat, rewards, terminated, truncated = self._native.step(self._actions)
         self._actions = None
         dones = terminated | truncated
-        infos = _rows(self._native.infos("step"), self.num_envs)
+        infos = _rows(self._native.infos("step"))
         self._episode_returns += rewards
         self._episode_lengths += 1
         if dones.any():
             finals = _common.split_observation(self._native.final_observations())
-            reset_infos = _rows(self._native.infos("reset"), self.num_envs)
+            reset_infos = _rows(self._native.infos("reset"))
             elapsed = round(time.time() - self._start_time, 6)
             for i in np.flatnonzero(dones):
                 info = infos[i]
@@ -157,10 +146,6 @@ class PandaRapierVecEnv(VecEnv):
             self._episode_returns[dones] = 0.0
             self._episode_lengths[dones] = 0
         return _common.split_observation(flat), rewards, dones, infos
-
-    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> Any:
-        """Batched reward, as :meth:`panda_rapier.PickAndPlaceEnv.compute_reward`."""
-        return _common.compute_reward(self._native, achieved_goal, desired_goal, info, self._dense)
 
     def close(self) -> None:
         self._native = _common.Closed("vector environment")
@@ -193,13 +178,11 @@ class PandaRapierVecEnv(VecEnv):
         return [None for _ in range(self.num_envs)]
 
 
-def _rows(columns: dict[str, np.ndarray], n: int) -> list[dict[str, Any]]:
+def _rows(columns: dict[str, np.ndarray]) -> list[dict[str, Any]]:
     """Per-environment info dicts of Python scalars from the native columns."""
     keys = list(columns)
     values: Iterable[list[Any]] = zip(*(columns[key].tolist() for key in keys), strict=True)
-    rows = [dict(zip(keys, row, strict=True)) for row in values]
-    assert len(rows) == n
-    return rows
+    return [dict(zip(keys, row, strict=True)) for row in values]
 
 
 def make_vec_env(

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from typing import Any
 
@@ -34,7 +33,7 @@ def _autoreset_mode(value: str | AutoresetMode) -> AutoresetMode:
     )
 
 
-class PickAndPlaceVectorEnv(VectorEnv):
+class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
     """``num_envs`` pick-and-place environments stepped by a Rust thread pool
     (``num_threads``, default: the machine's cores), the GIL released meanwhile.
 
@@ -72,14 +71,14 @@ class PickAndPlaceVectorEnv(VectorEnv):
                 f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}"
             )
         mode = _autoreset_mode(autoreset_mode)
-        self._native: Any = NativeVecEnv(
-            _common.config_json(config),
-            int(num_envs),
-            None if num_threads is None else int(num_threads),
-            _NATIVE_MODES[mode],
+        self._bind_native(
+            NativeVecEnv(
+                _common.config_json(config),
+                int(num_envs),
+                None if num_threads is None else int(num_threads),
+                _NATIVE_MODES[mode],
+            )
         )
-        self._config: dict[str, Any] = json.loads(self._native.config_json())
-        self._dense = self._config["reward_type"] == "dense"
         self.num_envs = int(num_envs)
         self.render_mode = render_mode
         self.metadata = {
@@ -99,16 +98,6 @@ class PickAndPlaceVectorEnv(VectorEnv):
     def num_threads(self) -> int:
         """Threads of the pool stepping the environments."""
         return int(self._native.num_threads)
-
-    @property
-    def dt(self) -> float:
-        """Control period in seconds."""
-        return float(self._native.dt)
-
-    @property
-    def config(self) -> dict[str, Any]:
-        """The full configuration, defaults filled in (a copy)."""
-        return json.loads(json.dumps(self._config))
 
     def reset(
         self,
@@ -193,10 +182,6 @@ class PickAndPlaceVectorEnv(VectorEnv):
         for key in [k for k in infos if not k.startswith("_")]:
             infos.setdefault(f"_{key}", self._masks_all)
         return infos
-
-    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> Any:
-        """See :meth:`panda_rapier.PickAndPlaceEnv.compute_reward`."""
-        return _common.compute_reward(self._native, achieved_goal, desired_goal, info, self._dense)
 
     def render(self) -> None:
         if self.render_mode is None:
