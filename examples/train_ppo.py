@@ -4,7 +4,7 @@
 
 Shows a progress bar, logs to TensorBoard (``tensorboard --logdir runs``: episode return,
 length and ``rollout/success_rate``), saves checkpoints and the final model to ``--out``;
-evaluate it with ``examples/evaluate.py``.
+evaluate it with ``panda-rapier eval --policy runs/.../model.zip``.
 """
 
 from __future__ import annotations

@@ -10,6 +10,7 @@ use pyo3::prelude::*;
 mod convert;
 mod env;
 mod errors;
+mod policy;
 mod vector;
 
 /// The default environment configuration as JSON (every field filled in).
@@ -26,5 +27,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<env::NativeEnv>()?;
     m.add_class::<env::NativeSnapshot>()?;
     m.add_class::<vector::NativeVecEnv>()?;
+    m.add_class::<policy::NativeScriptedPolicy>()?;
     Ok(())
 }

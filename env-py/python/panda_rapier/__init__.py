@@ -10,6 +10,7 @@ native stable-baselines3 vector environment.
     envs = gym.make_vec("panda_rapier/PickAndPlace-v0", num_envs=16,
                         vectorization_mode="vector_entry_point")
 
+The scripted baseline: :class:`ScriptedPolicy` (``panda-rapier eval`` on the command line).
 stable-baselines3 users: :func:`panda_rapier.sb3.make_vec_env` (needs the ``sb3`` extra).
 """
 
@@ -25,7 +26,8 @@ from .errors import (
     PandaRapierError,
     ResetNeededError,
 )
-from .registration import ENV_IDS, MAX_EPISODE_STEPS, register_envs
+from .policy import ScriptedPolicy
+from .registration import ENV_IDS, MAX_EPISODE_STEPS, env_config, register_envs
 from .robot import Robot
 from .vector import PickAndPlaceVectorEnv
 
@@ -41,7 +43,9 @@ __all__ = [
     "PickAndPlaceVectorEnv",
     "ResetNeededError",
     "Robot",
+    "ScriptedPolicy",
     "__version__",
+    "env_config",
     "register_envs",
 ]
 

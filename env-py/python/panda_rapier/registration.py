@@ -25,6 +25,25 @@ _VARIANTS: dict[str, dict[str, Any]] = {
 ENV_IDS: tuple[str, ...] = tuple(_VARIANTS)
 
 
+def env_config(env_id: str, **overrides: Any) -> dict[str, Any]:
+    """The configuration options of a registered panda_rapier id (its time limit included),
+    with ``overrides`` applied: what the vector environments and the scripted policy take."""
+    from .errors import ConfigError
+
+    try:
+        spec = gym.spec(env_id)
+    except gym.error.Error as error:
+        raise ConfigError(f"unknown environment id {env_id!r}; see panda_rapier.ENV_IDS") from error
+    if not str(spec.entry_point).startswith("panda_rapier"):
+        raise ConfigError(f"{env_id} is not a panda_rapier environment; see panda_rapier.ENV_IDS")
+    options = dict(spec.kwargs)
+    if spec.max_episode_steps is not None:
+        options.setdefault("max_episode_steps", spec.max_episode_steps)
+    options.update(overrides)
+    options.pop("render_mode", None)
+    return options
+
+
 def register_envs() -> None:
     """Registers every id in :data:`ENV_IDS` (idempotent)."""
     for env_id, kwargs in _VARIANTS.items():

@@ -29,6 +29,7 @@ except ImportError as error:  # pragma: no cover - exercised only without the ex
 from . import _common
 from ._native import NativeVecEnv
 from .errors import ConfigError, InvalidArgumentError
+from .registration import env_config
 
 __all__ = ["PandaRapierVecEnv", "make_vec_env"]
 
@@ -198,15 +199,8 @@ def make_vec_env(
     With ``seed``, environment ``i``'s first episode is seeded with ``seed + i`` (as
     stable-baselines3's own ``make_vec_env``); the same seed gives the same rollouts.
     """
-    spec = gym.spec(env_id)
-    if not str(spec.entry_point).startswith("panda_rapier"):
-        raise ConfigError(f"{env_id} is not a panda_rapier environment; see panda_rapier.ENV_IDS")
-    options = dict(spec.kwargs)
-    if spec.max_episode_steps is not None:
-        options.setdefault("max_episode_steps", spec.max_episode_steps)
-    options.update(config)
-    options.pop("render_mode", None)
-    venv = PandaRapierVecEnv(n_envs, num_threads=num_threads, spec=spec, **options)
+    options = env_config(env_id, **config)
+    venv = PandaRapierVecEnv(n_envs, num_threads=num_threads, spec=gym.spec(env_id), **options)
     if seed is not None:
         venv.seed(_common.as_seed(seed))
     return venv

@@ -1,0 +1,208 @@
+"""The ``panda-rapier`` command line.
+
+::
+
+    panda-rapier eval --policy scripted --episodes 1000 --num-envs 32 --seed 0
+    panda-rapier eval --policy runs/tqc_her/model.zip --episodes 100 --json eval.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from . import __version__
+from .errors import PandaRapierError
+from .registration import ENV_IDS, env_config
+
+DEFAULT_ENV_ID = "panda_rapier/PickAndPlace-v0"
+
+
+def _positive(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _non_negative(text: str) -> int:
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="panda-rapier",
+        description="panda_rapier: Franka Panda pick-and-place on rapier3d.",
+    )
+    parser.add_argument("--version", action="version", version=f"panda-rapier {__version__}")
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    evaluation = commands.add_parser(
+        "eval",
+        help="evaluate the scripted baseline or a saved stable-baselines3 model",
+        description="Runs seeded episodes (episode k is seeded with SEED + k) on the native "
+        "vector environment and reports the success rate with a 95 %% Wilson interval, the "
+        "mean return and length, the steps to success and the throughput.",
+    )
+    evaluation.add_argument(
+        "--policy",
+        default="scripted",
+        help="'scripted' (the manual-control baseline) or the path of a stable-baselines3 "
+        "model .zip (default: scripted)",
+    )
+    evaluation.add_argument(
+        "--env-id",
+        choices=ENV_IDS,
+        default=None,
+        help=f"environment (default: run.json beside the model, else {DEFAULT_ENV_ID})",
+    )
+    evaluation.add_argument(
+        "--control",
+        choices=("ee", "joints"),
+        default=None,
+        help="action mode, overriding the id's (default: the id's; for a model, the one its "
+        "action space fits)",
+    )
+    evaluation.add_argument("--episodes", type=_positive, default=1000)
+    evaluation.add_argument("--num-envs", type=_positive, default=32)
+    evaluation.add_argument("--seed", type=_non_negative, default=0, help="first episode's seed")
+    evaluation.add_argument(
+        "--threads", type=_positive, default=None, help="worker threads (default: all cores)"
+    )
+    evaluation.add_argument(
+        "--max-episode-steps", type=_positive, default=None, help="time limit (default: the id's)"
+    )
+    evaluation.add_argument(
+        "--algo", default=None, help="algorithm of the model file (default: read from the file)"
+    )
+    evaluation.add_argument("--json", type=Path, default=None, help="write the report here")
+    evaluation.add_argument("--quiet", action="store_true", help="no progress bar")
+    evaluation.set_defaults(run=_run_eval)
+    return parser
+
+
+def _model_env_id(model_path: Path) -> str | None:
+    """The environment id the training scripts recorded beside a model (``run.json``)."""
+    run_file = model_path.parent / "run.json"
+    try:
+        run = json.loads(run_file.read_text())
+    except (OSError, ValueError):
+        return None
+    env_id = run.get("env_id")
+    return env_id if env_id in ENV_IDS else None
+
+
+def _model_control_mode(model_path: Path) -> str:
+    """The action mode a saved model acts in, from its action space."""
+    from stable_baselines3.common.save_util import load_from_zip_file
+
+    data, _, _ = load_from_zip_file(model_path, load_data=True, device="cpu")
+    shape = getattr((data or {}).get("action_space"), "shape", None)
+    return "joints" if shape == (8,) else "ee"
+
+
+def _run_eval(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from .evaluation import evaluate, load_sb3_model
+    from .policy import ScriptedPolicy
+
+    overrides: dict[str, Any] = {}
+    if args.control is not None:
+        overrides["control_mode"] = args.control
+    if args.max_episode_steps is not None:
+        overrides["max_episode_steps"] = args.max_episode_steps
+
+    if args.policy == "scripted":
+        config = env_config(args.env_id or DEFAULT_ENV_ID, **overrides)
+        policy: Any = ScriptedPolicy(config)
+        label = "scripted"
+    else:
+        model_path = Path(args.policy)
+        if not model_path.is_file():
+            print(
+                f"panda-rapier eval: --policy must be 'scripted' or a model file; "
+                f"{model_path} does not exist",
+                file=sys.stderr,
+            )
+            return 2
+        env_id = args.env_id or _model_env_id(model_path) or DEFAULT_ENV_ID
+        if args.control is None:
+            overrides["control_mode"] = _model_control_mode(model_path)
+        from .sb3 import make_vec_env
+
+        # The model is loaded with an environment of the evaluation's spaces: a mismatch is
+        # reported by stable-baselines3, and hindsight replay buffers need one.
+        model = load_sb3_model(
+            model_path, env=make_vec_env(env_id, n_envs=1, **overrides), algo=args.algo
+        )
+        config = env_config(env_id, **overrides)
+        policy = model
+        label = str(model_path)
+
+    with tqdm(
+        total=args.episodes, desc="episodes", unit="ep", disable=args.quiet, file=sys.stderr
+    ) as bar:
+        report = evaluate(
+            policy,
+            config,
+            args.episodes,
+            num_envs=args.num_envs,
+            first_seed=args.seed,
+            num_threads=args.threads,
+            progress=lambda done: bar.update(done - bar.n),
+        )
+    report.policy = label
+    summary = report.summary()
+    low, high = summary["success_ci95"]
+    steps = summary["mean_steps_to_success"]
+    print(
+        f"policy {label} on {summary['episodes']} episodes "
+        f"({summary['control_mode']} control, {summary['reward_type']} reward, "
+        f"{summary['max_episode_steps']} steps, seeds {args.seed}..{args.seed + args.episodes - 1})"
+    )
+    print(
+        f"  success rate        {summary['success_rate']:.3f} "
+        f"(95 % CI {low:.3f}-{high:.3f}); cube placed in {summary['placed_rate']:.3f}"
+    )
+    print(f"  mean return         {summary['mean_return']:.3f} +- {summary['std_return']:.3f}")
+    print(f"  mean episode length {summary['mean_length']:.1f} steps")
+    print(
+        "  steps to success    "
+        + (
+            f"mean {steps:.1f}, median {summary['median_steps_to_success']:.1f}"
+            if steps is not None
+            else "never succeeded"
+        )
+    )
+    print(
+        f"  throughput          {summary['env_steps_per_s']:.0f} env-steps/s "
+        f"({summary['env_steps']} steps, {summary['num_envs']} envs, "
+        f"{summary['num_threads']} threads, {summary['wall_time_s']:.1f} s)"
+    )
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(report.to_json())
+        print(f"  report written to {args.json}")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``panda-rapier`` console script."""
+    args = _parser().parse_args(argv)
+    try:
+        return int(args.run(args))
+    except (PandaRapierError, ImportError, ValueError, OSError) as error:
+        print(f"panda-rapier {args.command}: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

