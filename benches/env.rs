@@ -1,11 +1,13 @@
 //! Criterion benches of the RL environment: one env step (random actions, both control modes),
-//! a reset, the vector env at N = 1, 16, 64 on 1 and 2 threads, and batched `compute_reward`.
+//! a reset, the vector env at N = 1, 16, 64, 256 on 1 and 2 threads, batched `compute_reward`
+//! and the scripted policy's batched actions.
 //!
 //! `cargo bench --bench env` (throughput is reported as env-steps per second).
 
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use panda_rapier::policies::ScriptedPolicy;
 use panda_rapier::task::{
     ControlMode, EnvConfig, PickAndPlaceEnv, ResetOptions, RewardContext, RewardType,
 };
@@ -68,7 +70,7 @@ fn vector_step(c: &mut Criterion) {
     let mut group = c.benchmark_group("vec_env_step");
     group.sample_size(20);
     group.measurement_time(Duration::from_secs(6));
-    for &n in &[1usize, 16, 64] {
+    for &n in &[1usize, 16, 64, 256] {
         for &threads in &[1usize, 2] {
             let mut env = VecEnv::new(
                 EnvConfig::default(),
@@ -125,11 +127,44 @@ fn compute_reward(c: &mut Criterion) {
     group.finish();
 }
 
+fn scripted_policy(c: &mut Criterion) {
+    let mut group = c.benchmark_group("scripted_policy_batch");
+    for mode in [ControlMode::Ee, ControlMode::Joints] {
+        let config = EnvConfig {
+            control_mode: mode,
+            ..EnvConfig::default()
+        };
+        // Observations from the middle of real episodes, so every phase's code runs.
+        let n = 256;
+        let mut env = VecEnv::new(config.clone(), n, Some(1), AutoresetMode::SameStep).unwrap();
+        env.reset(Some(0)).unwrap();
+        let mut policy = ScriptedPolicy::new(&config).unwrap();
+        let mut actions = vec![0.0; n * policy.action_dim()];
+        for _ in 0..20 {
+            policy.act_batch(env.observations(), &mut actions).unwrap();
+            env.step(&actions).unwrap();
+        }
+        let observations = env.observations().to_vec();
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_function(format!("{}_{n}", mode.as_str()), |b| {
+            b.iter(|| policy.act_batch(&observations, &mut actions).unwrap())
+        });
+    }
+    group.finish();
+}
+
 // criterion_group! generates an undocumented public function.
 #[allow(missing_docs)]
 mod group {
     use super::*;
-    criterion_group!(benches, env_step, env_reset, vector_step, compute_reward);
+    criterion_group!(
+        benches,
+        env_step,
+        env_reset,
+        vector_step,
+        compute_reward,
+        scripted_policy
+    );
 }
 use group::benches;
 criterion_main!(benches);

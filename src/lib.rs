@@ -7,7 +7,8 @@
 pub use panda_rapier_core::*;
 pub use panda_rapier_policies as policies;
 
-pub mod demo;
+/// The classic tutorial's pick-and-place sequence (see [`panda_rapier_policies::tutorial`]).
+pub use panda_rapier_policies::tutorial as demo;
 
 /// The README's Rust examples, compiled and run as doc tests.
 #[doc = include_str!("../README.md")]

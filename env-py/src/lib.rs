@@ -19,11 +19,42 @@ fn default_config_json() -> String {
     serde_json::to_string(&panda_rapier_core::EnvConfig::default()).unwrap_or_default()
 }
 
+/// Runs the classic tutorial's pick-and-place sequence on a bare simulation of `config_json`
+/// and returns what the physics did: the accuracy side of a benchmark (grasp slip, tracking
+/// error, placement).
+#[pyfunction]
+fn tutorial_fidelity<'py>(
+    py: Python<'py>,
+    config_json: &str,
+) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+    use panda_rapier_policies::tutorial::{run, TutorialSequence};
+    let config = env::parse_config(py, config_json)?;
+    let report = errors::detached(py, || {
+        let mut sim = panda_rapier_core::Simulation::new(config.sim_config()?)?;
+        let plan = TutorialSequence::for_scene(&sim);
+        run(&mut sim, &plan)
+    })?
+    .map_err(|e| errors::to_py(py, e, errors::Blame::Config))?;
+    let dict = pyo3::types::PyDict::new(py);
+    dict.set_item("lift_m", report.lift)?;
+    dict.set_item("carry_distance_m", report.carry_distance)?;
+    dict.set_item("carry_slip_mm", report.carry_slip * 1e3)?;
+    dict.set_item("carry_slip_deg", report.carry_slip_angle.to_degrees())?;
+    dict.set_item("max_slip_mm", report.max_slip * 1e3)?;
+    dict.set_item("max_slip_deg", report.max_slip_angle.to_degrees())?;
+    dict.set_item("max_tracking_error_mm", report.max_tracking_error * 1e3)?;
+    dict.set_item("placement_error_mm", report.placement_error * 1e3)?;
+    dict.set_item("on_platform", report.on_platform)?;
+    dict.set_item("non_finite_seen", report.non_finite_seen)?;
+    Ok(dict)
+}
+
 /// The native module.
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(default_config_json, m)?)?;
+    m.add_function(wrap_pyfunction!(tutorial_fidelity, m)?)?;
     m.add_class::<env::NativeEnv>()?;
     m.add_class::<env::NativeSnapshot>()?;
     m.add_class::<vector::NativeVecEnv>()?;

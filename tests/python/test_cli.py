@@ -93,3 +93,27 @@ def test_eval_loads_a_saved_sb3_model(tmp_path: Path) -> None:
     report = json.loads(out.read_text())
     assert report["control_mode"] == "joints" and report["episodes"] == 2
     assert report["policy"].endswith("ppo.zip")
+
+
+def test_bench_reports_speed_next_to_accuracy(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "bench.json"
+    args = ["bench", "--num-envs", "1", "2", "--rounds", "2", "--env-steps", "16", "--no-peers",
+            "--quiet", "--json", str(out)]  # fmt: skip
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert "env-steps/s" in text and "accuracy: tutorial grasp carry slip" in text
+    report = json.loads(out.read_text())
+    rows = {(r["target"], r["policy"], r["num_envs"]) for r in report["results"]}
+    expected = {("gym.make", p, 1) for p in ("random", "scripted")}
+    expected |= {(t, p, n) for t in ("vector", "sb3") for p in ("random", "scripted")
+                 for n in (1, 2)}  # fmt: skip
+    assert rows == expected
+    for row in report["results"]:
+        assert len(row["runs"]) == 2 and all(rate > 0 for rate in row["runs"])
+        assert row["sim_s_per_s"] == pytest.approx(row["env_steps_per_s"] * 0.04)
+    assert report["ratios"] == [] and report["machine"]["cpus"] >= 1
+    fidelity = report["fidelity"]
+    assert fidelity["on_platform"] and fidelity["carry_slip_mm"] < 5.0
+    assert not fidelity["non_finite_seen"]

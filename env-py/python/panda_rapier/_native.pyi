@@ -8,6 +8,7 @@ import numpy.typing as npt
 __version__: str
 
 def default_config_json() -> str: ...
+def tutorial_fidelity(config_json: str) -> dict[str, float | bool]: ...
 
 _F32 = npt.NDArray[np.float32]
 _F64 = npt.NDArray[np.float64]

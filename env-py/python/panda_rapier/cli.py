@@ -4,6 +4,7 @@
 
     panda-rapier eval --policy scripted --episodes 1000 --num-envs 32 --seed 0
     panda-rapier eval --policy runs/tqc_her/model.zip --episodes 100 --json eval.json
+    panda-rapier bench --num-envs 1 16 64 256 --json bench.json
 """
 
 from __future__ import annotations
@@ -85,7 +86,72 @@ def _parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--json", type=Path, default=None, help="write the report here")
     evaluation.add_argument("--quiet", action="store_true", help="no progress bar")
     evaluation.set_defaults(run=_run_eval)
+
+    bench = commands.add_parser(
+        "bench",
+        help="throughput: env-steps/s and simulated seconds per second, next to the peers",
+        description="Measures the gym.make single env, the native vector env and the "
+        "stable-baselines3 VecEnv at each N, with random actions and the scripted policy, and "
+        "the installed peers (panda-gym, Gymnasium-Robotics, envpool) in the same run, "
+        "interleaved round by round; prints medians, ratios against the peers and the accuracy "
+        "side (grasp slip, tracking error, scripted placed rate).",
+    )
+    bench.add_argument("--env-id", choices=ENV_IDS, default=DEFAULT_ENV_ID)
+    bench.add_argument(
+        "--num-envs", type=_positive, nargs="+", default=[1, 16, 64, 256], metavar="N"
+    )
+    bench.add_argument(
+        "--targets",
+        nargs="+",
+        choices=("gym.make", "vector", "sb3"),
+        default=["gym.make", "vector", "sb3"],
+    )
+    bench.add_argument(
+        "--policies", nargs="+", choices=("random", "scripted"), default=["random", "scripted"]
+    )
+    bench.add_argument(
+        "--threads", type=_positive, default=None, help="worker threads (default: all cores)"
+    )
+    bench.add_argument("--rounds", type=_positive, default=3, help="repeats (median reported)")
+    bench.add_argument(
+        "--env-steps", type=_positive, default=4000, help="environment steps per measurement"
+    )
+    bench.add_argument("--no-peers", action="store_true", help="skip the peer environments")
+    bench.add_argument("--json", type=Path, default=None, help="write the report here")
+    bench.add_argument("--quiet", action="store_true", help="no progress bar")
+    bench.set_defaults(run=_run_bench)
     return parser
+
+
+def _run_bench(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from .bench import format_report, run_benchmark, to_json
+
+    with tqdm(desc="bench", unit="run", disable=args.quiet, file=sys.stderr) as bar:
+
+        def progress(done: int, total: int, label: str) -> None:
+            bar.total = total
+            bar.set_postfix_str(label)
+            bar.update(done - bar.n)
+
+        report = run_benchmark(
+            env_id=args.env_id,
+            num_envs=args.num_envs,
+            targets=args.targets,
+            policies=args.policies,
+            threads=args.threads,
+            rounds=args.rounds,
+            env_steps=args.env_steps,
+            peers=not args.no_peers,
+            progress=progress,
+        )
+    print(format_report(report))
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(to_json(report))
+        print(f"report written to {args.json}")
+    return 0
 
 
 def _model_env_id(model_path: Path) -> str | None:
