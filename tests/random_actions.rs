@@ -5,14 +5,21 @@
 
 use panda_rapier::task::{ControlMode, EnvConfig};
 use panda_rapier::vector::{AutoresetMode, VecEnv};
+use panda_rapier::ArmModel;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 #[test]
 fn random_actions_stay_physical() {
-    for mode in [ControlMode::Ee, ControlMode::Joints] {
+    for (mode, arm) in [
+        (ControlMode::Ee, ArmModel::Dynamic),
+        (ControlMode::Joints, ArmModel::Dynamic),
+        (ControlMode::Ee, ArmModel::Kinematic),
+        (ControlMode::Joints, ArmModel::Kinematic),
+    ] {
         let config = EnvConfig {
             control_mode: mode,
+            arm,
             max_episode_steps: Some(50),
             ..EnvConfig::default()
         };
@@ -33,7 +40,7 @@ fn random_actions_stay_physical() {
             for i in 0..n {
                 assert!(
                     !env.info(i).unwrap().physics_unstable,
-                    "{mode:?}: env {i} blew up"
+                    "{mode:?} {arm:?}: env {i} blew up"
                 );
                 let (linear, _) = env.env(i).unwrap().simulation().max_body_speeds();
                 fastest = fastest.max(linear);
@@ -41,10 +48,13 @@ fn random_actions_stay_physical() {
             episodes += env.has_final_observation().iter().filter(|&&f| f).count();
         }
         println!(
-            "{mode:?}: {} env steps, {episodes} episodes, fastest body {fastest:.2} m/s",
+            "{mode:?} {arm:?}: {} env steps, {episodes} episodes, fastest body {fastest:.2} m/s",
             n * 250
         );
         assert_eq!(episodes, n * 5, "every 50-step episode ends by truncation");
-        assert!(fastest < 8.0, "{mode:?}: a body reached {fastest:.1} m/s");
+        assert!(
+            fastest < 8.0,
+            "{mode:?} {arm:?}: a body reached {fastest:.1} m/s"
+        );
     }
 }

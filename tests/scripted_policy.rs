@@ -1,10 +1,11 @@
 //! Contract: the scripted pick-and-place baseline places the cube within the default episode
-//! length in both action modes, reads nothing but the observation (the same observation gives
+//! length in both action modes and with both arm models, reads nothing but the observation (the same observation gives
 //! the same action, in any environment), and recovers when the cube is taken from its hand.
 
 use panda_rapier::nalgebra::{UnitQuaternion, Vector3};
 use panda_rapier::policies::{evaluate, Phase, ScriptedPolicy};
 use panda_rapier::task::{ControlMode, EnvConfig, PickAndPlaceEnv, ResetOptions};
+use panda_rapier::ArmModel;
 
 fn config(mode: ControlMode) -> EnvConfig {
     EnvConfig {
@@ -28,6 +29,30 @@ fn places_the_cube_in_at_least_98_percent_of_200_seeded_episodes() {
         assert!(
             report.placed_rate() >= 0.98,
             "{}: placed in {:.1} % of episodes",
+            mode.as_str(),
+            100.0 * report.placed_rate()
+        );
+    }
+}
+
+#[test]
+fn places_the_cube_with_the_kinematic_arm_too() {
+    for mode in [ControlMode::Ee, ControlMode::Joints] {
+        let cfg = EnvConfig {
+            arm: ArmModel::Kinematic,
+            ..config(mode)
+        };
+        let report = evaluate(&cfg, 200, 32, Some(2), 0, |_| {}).unwrap();
+        println!(
+            "kinematic {}: placed {:.1} %, mean {:.1} steps, failed {:?}",
+            mode.as_str(),
+            100.0 * report.placed_rate(),
+            report.mean_steps_to_placed(),
+            report.failed_episodes()
+        );
+        assert!(
+            report.placed_rate() >= 0.98,
+            "kinematic {}: placed in {:.1} % of episodes",
             mode.as_str(),
             100.0 * report.placed_rate()
         );

@@ -85,15 +85,27 @@ impl RobotModel {
     pub fn link_poses(&self, q: &[f64], base: &Isometry3<f64>) -> Result<Vec<Isometry3<f64>>> {
         self.validate_configuration(q)?;
         let mut positions = vec![0.0; self.joints().len()];
-        self.expand_positions(q, &mut positions);
         let mut poses = vec![Isometry3::identity(); self.links().len()];
+        self.link_poses_into(q, base, &mut positions, &mut poses);
+        Ok(poses)
+    }
+
+    /// [`RobotModel::link_poses`] into caller-owned buffers (`positions`: one entry per
+    /// joint, `poses`: one per link) for a `q` known to be valid: no allocation.
+    pub(crate) fn link_poses_into(
+        &self,
+        q: &[f64],
+        base: &Isometry3<f64>,
+        positions: &mut [f64],
+        poses: &mut [Isometry3<f64>],
+    ) {
+        self.expand_positions(q, positions);
         poses[self.root_link()] = *base;
         for &j in self.topological_joints() {
             let joint = &self.joints()[j];
             poses[joint.child_link_index] =
                 poses[joint.parent_link_index] * self.joint_transform(j, positions[j]);
         }
-        Ok(poses)
     }
 
     /// World-frame pose of the link named `link` for configuration `q`.

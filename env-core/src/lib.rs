@@ -21,7 +21,9 @@ pub mod physics;
 pub mod task;
 pub mod vector;
 
-pub use config::{CubeConfig, MotorConfig, PlatformConfig, SimConfig, SolverConfig, PANDA_READY};
+pub use config::{
+    ArmModel, CubeConfig, MotorConfig, PlatformConfig, SimConfig, SolverConfig, PANDA_READY,
+};
 pub use error::{Error, Result};
 pub use kinematics::{pointing_down, IkOptions, IkReport, IkSolution, IkWorkspace};
 pub use model::{JointInfo, JointType, LinkInfo, Mimic, RobotModel, Tcp};

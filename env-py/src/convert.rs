@@ -36,6 +36,7 @@ const INFO_FIELDS: &[InfoField] = &[
     InfoField::Flag("cube_at_rest", |i| i.context.cube_at_rest),
     InfoField::Flag("cube_on_platform", |i| i.context.cube_on_platform),
     InfoField::Real("ik_position_error", |i| i.ik_position_error),
+    InfoField::Flag("arm_blocked", |i| i.arm_blocked),
     InfoField::Count("elapsed_steps", |i| i.elapsed_steps as i64),
 ];
 

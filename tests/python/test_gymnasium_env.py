@@ -181,3 +181,24 @@ def test_config_passes_through_gym_make() -> None:
     assert env.metadata["render_fps"] == 50
     env = gym.make("panda_rapier/PickAndPlace-v0", render_mode="rgb_array")
     assert env.render_mode == "rgb_array"
+
+
+@pytest.mark.parametrize("env_id", panda_rapier.ENV_IDS)
+def test_kinematic_arm_passes_the_checker_and_reports_blocked_motion(env_id: str) -> None:
+    env = gym.make(env_id, arm="kinematic")
+    check_env(env.unwrapped, skip_render_check=True)
+    assert env.unwrapped.config["arm"] == "kinematic"
+    _, info = env.reset(seed=0)
+    assert info["arm_blocked"] is False
+    for _ in range(5):
+        _, _, _, _, info = env.step(env.action_space.sample())
+        assert isinstance(info["arm_blocked"], bool)
+    with pytest.raises(panda_rapier.ConfigError, match="dynamic. or .kinematic"):
+        gym.make(env_id, arm="teleport")
+
+
+def test_kinematic_arm_rejects_torque_control() -> None:
+    env = gym.make("panda_rapier/PickAndPlace-v0", arm="kinematic")
+    env.reset(seed=0)
+    with pytest.raises(panda_rapier.InvalidArgumentError, match="dynamic arm"):
+        env.unwrapped.robot.torque_control("panda_joint2", 1.0)

@@ -5,11 +5,13 @@
 //! motors. Everything it hands out is in f64 nalgebra types; rapier's types stay inside.
 
 mod convert;
+mod kinematic_arm;
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rapier3d::dynamics::{
-    ImpulseJointSet, IslandManager, JointAxis, MotorModel, MultibodyDofCoupling, MultibodyIndex,
-    MultibodyJointSet, RigidBodyBuilder, RigidBodyHandle, RigidBodySet,
+    FixedJointBuilder, ImpulseJointSet, IslandManager, JointAxis, MotorModel, MultibodyDofCoupling,
+    MultibodyIndex, MultibodyJointSet, RigidBodyBuilder, RigidBodyHandle, RigidBodySet,
+    RigidBodyType,
 };
 use rapier3d::geometry::{
     BroadPhaseBvh, ColliderBuilder, ColliderHandle, ColliderSet, Group, InteractionGroups,
@@ -17,9 +19,12 @@ use rapier3d::geometry::{
 };
 use rapier3d::math::Vector;
 use rapier3d::pipeline::PhysicsWorld;
-use rapier3d_urdf::{UrdfLoaderOptions, UrdfMultibodyOptions, UrdfRobot};
+use rapier3d_urdf::{
+    UrdfColliderHandle, UrdfJoint, UrdfLinkHandle, UrdfLoaderOptions, UrdfMultibodyOptions,
+    UrdfRobot,
+};
 
-use crate::config::{SimConfig, PANDA_READY};
+use crate::config::{ArmModel, SimConfig, PANDA_READY};
 use crate::error::{ensure_all_finite, ensure_finite, ensure_len, Error, Result};
 use crate::model::{JointType, RobotModel};
 use convert::{pose_from_na, pose_to_na, vec_from_array, vec_from_na, vec_to_na};
@@ -190,6 +195,7 @@ pub struct SimSnapshot {
     colliders: ColliderSet,
     impulse_joints: ImpulseJointSet,
     multibody_joints: MultibodyJointSet,
+    kinematic: Option<KinematicArm>,
     controls: Vec<JointControl>,
     torques_applied: bool,
     time: f64,
@@ -238,13 +244,32 @@ struct DofSlot {
     parent_body: RigidBodyHandle,
 }
 
+/// The arm of [`ArmModel::Kinematic`]: the joint trajectory its links follow.
+#[derive(Debug, Clone)]
+struct KinematicArm {
+    /// Position and velocity of every actuated dof (the gripper's entries are unused: the
+    /// fingers are dynamic).
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    /// Physics steps whose arm motion was refused because a link would enter the scenery.
+    blocked_steps: u64,
+
+    /// Scratch space, so stepping does not allocate.
+    q_next: Vec<f64>,
+    joint_positions: Vec<f64>,
+    link_poses: Vec<Isometry3<f64>>,
+}
+
 /// One physics world: the robot, the floor, the platform and the cube.
 pub struct Simulation {
     config: SimConfig,
     model: RobotModel,
     base: Isometry3<f64>,
     world: PhysicsWorld,
-    multibody: MultibodyIndex,
+    /// The arm's multibody ([`ArmModel::Dynamic`]).
+    multibody: Option<MultibodyIndex>,
+    /// The arm's trajectory ([`ArmModel::Kinematic`]).
+    kinematic: Option<KinematicArm>,
     /// Rigid body of each model link that has one (frame-only links are folded into a parent).
     link_bodies: Vec<Option<RigidBodyHandle>>,
     /// Collider friction of each model link.
@@ -309,6 +334,9 @@ impl Simulation {
         // and without friction in the bias pass a squeezed cube creeps out of the grip.
         p.contact_recycling = false;
         p.friction_in_bias_pass = true;
+        // The kinematic arm's weld between its last placed link and the gripper is an impulse
+        // joint; restarting from zero impulse every substep it would sag under the load.
+        p.warmstart_joints = true;
 
         let base = Isometry3::translation(
             config.robot_base[0],
@@ -389,20 +417,6 @@ impl Simulation {
             mesh_converter: Some(MeshConverter::ConvexHull),
             ..Default::default()
         };
-        let urdf_robot = UrdfRobot::from_robot(model.urdf(), options, std::path::Path::new("/"));
-        let link_sources: Vec<usize> = urdf_robot.links.iter().map(|l| l.urdf_link_index).collect();
-        let joint_sources: Vec<usize> = urdf_robot
-            .joints
-            .iter()
-            .map(|j| j.source_urdf_joint_index())
-            .collect();
-        let handles = urdf_robot.insert_using_multibody_joints(
-            &mut world.bodies,
-            &mut world.colliders,
-            &mut world.multibody_joints,
-            UrdfMultibodyOptions::DISABLE_SELF_CONTACTS,
-        );
-
         let gripper_joint = find_gripper_joint(&model);
         // The gripper's driving joint and the joints mimicking it: one per finger.
         let finger_joints: Vec<usize> = model
@@ -426,10 +440,61 @@ impl Simulation {
             .map(|j| j.index)
             .collect();
 
+        let urdf_robot = UrdfRobot::from_robot(model.urdf(), options, std::path::Path::new("/"));
+        let link_sources: Vec<usize> = urdf_robot.links.iter().map(|l| l.urdf_link_index).collect();
+        let joint_sources: Vec<usize> = urdf_robot
+            .joints
+            .iter()
+            .map(|j| j.source_urdf_joint_index())
+            .collect();
+        let (link_handles, link_sources, joint_slots, multibody, kinematic) = match config.arm {
+            ArmModel::Dynamic => {
+                let handles = urdf_robot.insert_using_multibody_joints(
+                    &mut world.bodies,
+                    &mut world.colliders,
+                    &mut world.multibody_joints,
+                    UrdfMultibodyOptions::DISABLE_SELF_CONTACTS,
+                );
+                let (joint_slots, multibody) = build_multibody(
+                    &mut world.multibody_joints,
+                    &model,
+                    &config,
+                    &handles.joints,
+                    &joint_sources,
+                    &finger_joints,
+                    |_| true,
+                )?;
+                (
+                    handles.links,
+                    link_sources,
+                    joint_slots,
+                    Some(multibody),
+                    None,
+                )
+            }
+            ArmModel::Kinematic => {
+                let built = build_kinematic_arm(
+                    &mut world,
+                    &model,
+                    &config,
+                    urdf_robot,
+                    gripper_joint,
+                    &finger_joints,
+                )?;
+                (
+                    built.links,
+                    built.link_sources,
+                    built.joint_slots,
+                    Some(built.multibody),
+                    Some(built.arm),
+                )
+            }
+        };
+
         let mut link_bodies = vec![None; model.links().len()];
         let mut link_friction = vec![0.0; model.links().len()];
         let mut robot_colliders = Vec::new();
-        for (handle, &link) in handles.links.iter().zip(&link_sources) {
+        for (handle, &link) in link_handles.iter().zip(&link_sources) {
             link_bodies[link] = Some(handle.body);
             let friction = if finger_links.contains(&link) {
                 config.finger_friction
@@ -451,85 +516,6 @@ impl Simulation {
             }
         }
 
-        let mut joint_slots = vec![None; model.joints().len()];
-        let mut multibody = None;
-        for (handle, &joint) in handles.joints.iter().zip(&joint_sources) {
-            if handle.joint.is_none() {
-                continue;
-            }
-            let Some(link_id) = world
-                .multibody_joints
-                .rigid_body_link(handle.link2)
-                .copied()
-            else {
-                continue;
-            };
-            multibody = Some(link_id.multibody);
-            let info = &model.joints()[joint];
-            let (coord, axis) = match info.joint_type {
-                JointType::Prismatic => (0, JointAxis::LinX),
-                JointType::Revolute | JointType::Continuous => (3, JointAxis::AngX),
-                JointType::Fixed => continue,
-            };
-            joint_slots[joint] = Some(DofSlot {
-                link_id: link_id.id,
-                coord,
-                axis,
-                child_body: handle.link2,
-                parent_body: handle.link1,
-            });
-        }
-        for j in model.joints() {
-            if j.joint_type.is_movable() && joint_slots[j.index].is_none() {
-                return Err(Error::MalformedUrdf {
-                    source_name: model.source().to_owned(),
-                    reason: format!("joint `{}` could not be built as a multibody joint", j.name),
-                });
-            }
-        }
-        let multibody = multibody.ok_or_else(|| Error::MalformedUrdf {
-            source_name: model.source().to_owned(),
-            reason: "the robot has no movable joints".into(),
-        })?;
-
-        // Mimic joints (the second finger) follow their master through a holonomic coupling,
-        // like the real gripper's single drive, instead of two independently saturated motors
-        // that let a held cube drift sideways.
-        if let Some(mb) = world.multibody_joints.get_multibody_mut(multibody) {
-            for j in model.joints() {
-                let Some(slot) = joint_slots[j.index] else {
-                    continue;
-                };
-                let armature = if finger_joints.contains(&j.index) {
-                    config.motors.finger_armature
-                } else {
-                    config.motors.arm_armature
-                };
-                if let Some(link) = mb.link(slot.link_id) {
-                    let dof = link.assembly_id();
-                    if dof < mb.armature().len() {
-                        mb.armature_mut()[dof] = armature as f32;
-                    }
-                }
-            }
-            for j in model.joints() {
-                if let (Some(m), Some(slave)) = (j.mimic, joint_slots[j.index]) {
-                    if let Some(master) = joint_slots[m.master] {
-                        mb.add_dof_coupling(MultibodyDofCoupling {
-                            link1: master.link_id,
-                            dof1: 0,
-                            axis1: master.coord,
-                            link2: slave.link_id,
-                            dof2: 0,
-                            axis2: slave.coord,
-                            coeff: m.multiplier as f32,
-                            offset: m.offset as f32,
-                        });
-                    }
-                }
-            }
-        }
-
         let controls = vec![JointControl::position(0.0); model.num_dofs()];
         let mut sim = Self {
             config,
@@ -537,6 +523,7 @@ impl Simulation {
             base,
             world,
             multibody,
+            kinematic,
             link_bodies,
             link_friction,
             joint_slots,
@@ -606,13 +593,21 @@ impl Simulation {
     }
 
     fn read_joint(&self, joint: usize) -> JointState {
+        if let Some(arm) = &self.kinematic {
+            if !self.finger_joints.contains(&joint) {
+                return self.read_kinematic_joint(arm, joint);
+            }
+        }
         let Some(slot) = self.slot(joint) else {
             return JointState {
                 position: 0.0,
                 velocity: 0.0,
             };
         };
-        let Some(mb) = self.world.multibody_joints.get_multibody(self.multibody) else {
+        let Some(mb) = self
+            .multibody
+            .and_then(|m| self.world.multibody_joints.get_multibody(m))
+        else {
             return JointState {
                 position: f64::NAN,
                 velocity: f64::NAN,
@@ -704,10 +699,13 @@ impl Simulation {
         let mut positions = vec![0.0; self.model.joints().len()];
         self.model.expand_positions(&q, &mut positions);
 
+        // The kinematic arm's links (and the gripper's root, the hand) are put in place first;
+        // the gripper's multibody then reads its root pose from the hand's body.
+        let read_root = self.kinematic.is_some();
+        self.teleport_kinematic_arm(&q);
         let Some(mb) = self
-            .world
-            .multibody_joints
-            .get_multibody_mut(self.multibody)
+            .multibody
+            .and_then(|m| self.world.multibody_joints.get_multibody_mut(m))
         else {
             return Ok(());
         };
@@ -721,7 +719,7 @@ impl Simulation {
         }
         mb.apply_displacements(&displacement);
         mb.generalized_velocity_mut().fill(0.0);
-        mb.forward_kinematics(&self.world.bodies, false);
+        mb.forward_kinematics(&self.world.bodies, read_root);
         mb.update_rigid_bodies(&mut self.world.bodies, true);
         for body in self.link_bodies.iter().flatten() {
             if let Some(rb) = self.world.bodies.get_mut(*body) {
@@ -758,6 +756,7 @@ impl Simulation {
     pub fn set_joint_control(&mut self, index: usize, control: JointControl) -> Result<()> {
         let dof = self.actuated_dof(index)?;
         control.validate(&self.model.joints()[index].name)?;
+        self.check_supported(&control, index)?;
         self.controls[dof] = control;
         self.apply_motor_settings();
         Ok(())
@@ -774,6 +773,7 @@ impl Simulation {
         ensure_len("joint controls", self.model.num_dofs(), controls.len())?;
         for (dof, c) in controls.iter().enumerate() {
             c.validate(&self.model.joints()[self.dof_joint(dof)].name)?;
+            self.check_supported(c, self.dof_joint(dof))?;
         }
         self.controls.copy_from_slice(controls);
         self.apply_motor_settings();
@@ -837,9 +837,8 @@ impl Simulation {
     fn apply_motor_settings(&mut self) {
         let motors = &self.config.motors;
         let Some(mb) = self
-            .world
-            .multibody_joints
-            .get_multibody_mut(self.multibody)
+            .multibody
+            .and_then(|m| self.world.multibody_joints.get_multibody_mut(m))
         else {
             return;
         };
@@ -950,7 +949,11 @@ impl Simulation {
 
     /// Advances the world by one physics step (`solver.dt`).
     pub fn step(&mut self) {
-        self.apply_joint_torques();
+        if self.kinematic.is_some() {
+            self.advance_kinematic_arm();
+        } else {
+            self.apply_joint_torques();
+        }
         self.world.step();
         self.time += self.config.solver.dt;
         self.steps += 1;
@@ -985,7 +988,7 @@ impl Simulation {
 
     /// Pose and velocity of link `index`. Frame-only links without a body of their own (such as
     /// the flange) are placed by the fixed transforms to their nearest ancestor with a body.
-    fn link_body_state(&self, index: usize) -> BodyState {
+    pub(super) fn link_body_state(&self, index: usize) -> BodyState {
         let mut offset = Isometry3::identity();
         let mut link = index;
         loop {
@@ -1232,6 +1235,7 @@ impl Simulation {
             colliders: self.world.colliders.clone(),
             impulse_joints: self.world.impulse_joints.clone(),
             multibody_joints: self.world.multibody_joints.clone(),
+            kinematic: self.kinematic.clone(),
             controls: self.controls.clone(),
             torques_applied: self.torques_applied,
             time: self.time,
@@ -1258,6 +1262,7 @@ impl Simulation {
         self.world
             .multibody_joints
             .clone_from(&snapshot.multibody_joints);
+        self.kinematic.clone_from(&snapshot.kinematic);
         self.controls.clone_from(&snapshot.controls);
         self.torques_applied = snapshot.torques_applied;
         self.time = snapshot.time;
@@ -1274,6 +1279,243 @@ impl Simulation {
             t.is_finite() && v.is_finite() && w.is_finite() && rb.rotation().is_finite()
         })
     }
+}
+
+/// What [`build_kinematic_arm`] put into the world.
+struct KinematicBuild {
+    links: Vec<UrdfLinkHandle>,
+    link_sources: Vec<usize>,
+    joint_slots: Vec<Option<DofSlot>>,
+    multibody: MultibodyIndex,
+    arm: KinematicArm,
+}
+
+/// The kinematic arm: every link but the gripper's becomes a placed (kinematic) body; the
+/// gripper (the fingers' parent link and the fingers) becomes its own multibody with the
+/// dynamic arm's coupled, force-limited drive, its root free and welded by a fixed joint to
+/// the placed link it hangs from. (A multibody rooted on a placed body does not pass the
+/// body's motion on to the fingers' contacts, and fingers on separate impulse joints could
+/// not be coupled: a held cube shuttled 1-2 cm between them during carries.)
+fn build_kinematic_arm(
+    world: &mut PhysicsWorld,
+    model: &RobotModel,
+    config: &SimConfig,
+    robot: UrdfRobot,
+    gripper_joint: Option<usize>,
+    finger_joints: &[usize],
+) -> Result<KinematicBuild> {
+    let malformed = |reason: &str| Error::MalformedUrdf {
+        source_name: model.source().to_owned(),
+        reason: reason.into(),
+    };
+    let gripper_root = gripper_joint
+        .map(|g| model.joints()[g].parent_link_index)
+        .ok_or_else(|| malformed("the kinematic arm needs a robot with a prismatic gripper"))?;
+    let in_gripper = |link: usize| {
+        link == gripper_root
+            || finger_joints
+                .iter()
+                .any(|&j| model.joints()[j].child_link_index == link)
+    };
+    let UrdfRobot { links, joints } = robot;
+    let mut gripper = UrdfRobot {
+        links: Vec::new(),
+        joints: Vec::new(),
+    };
+    let mut gripper_index = vec![None; links.len()];
+    let mut placed_links = Vec::new();
+    let mut link_sources = Vec::new();
+    for (i, mut link) in links.into_iter().enumerate() {
+        if in_gripper(link.urdf_link_index) {
+            gripper_index[i] = Some(gripper.links.len());
+            gripper.links.push(link);
+        } else {
+            link.body
+                .set_body_type(RigidBodyType::KinematicPositionBased, false);
+            let body = world.bodies.insert(link.body);
+            let colliders = link
+                .colliders
+                .into_iter()
+                .map(|c| UrdfColliderHandle {
+                    handle: world
+                        .colliders
+                        .insert_with_parent(c.collider, body, &mut world.bodies),
+                    visual: c.visual,
+                })
+                .collect();
+            placed_links.push(UrdfLinkHandle { body, colliders });
+            link_sources.push(link.urdf_link_index);
+        }
+    }
+    for joint in joints {
+        if let (Some(link1), Some(link2)) = (gripper_index[joint.link1], gripper_index[joint.link2])
+        {
+            gripper.joints.push(UrdfJoint {
+                link1,
+                link2,
+                ..joint
+            });
+        }
+    }
+    let gripper_sources: Vec<usize> = gripper.links.iter().map(|l| l.urdf_link_index).collect();
+    let joint_sources: Vec<usize> = gripper
+        .joints
+        .iter()
+        .map(|j| j.source_urdf_joint_index())
+        .collect();
+    let root_position = gripper_sources
+        .iter()
+        .position(|&l| l == gripper_root)
+        .ok_or_else(|| malformed("the gripper's parent link has no body"))?;
+    let handles = gripper.insert_using_multibody_joints(
+        &mut world.bodies,
+        &mut world.colliders,
+        &mut world.multibody_joints,
+        UrdfMultibodyOptions::DISABLE_SELF_CONTACTS,
+    );
+    let (joint_slots, multibody) = build_multibody(
+        &mut world.multibody_joints,
+        model,
+        config,
+        &handles.joints,
+        &joint_sources,
+        finger_joints,
+        |j| finger_joints.contains(&j),
+    )?;
+
+    // Weld the gripper's root to the nearest placed ancestor, through fixed joints only.
+    let mut offset = Isometry3::identity();
+    let mut link = gripper_root;
+    let anchor = loop {
+        let j = model.links()[link]
+            .parent_joint
+            .ok_or_else(|| malformed("the gripper is the robot's root"))?;
+        if model.joints()[j].joint_type != JointType::Fixed {
+            return Err(malformed(
+                "the kinematic arm needs the gripper fixed to the last arm link",
+            ));
+        }
+        offset = model.joint_transform(j, 0.0) * offset;
+        link = model.joints()[j].parent_link_index;
+        if let Some(i) = link_sources.iter().position(|&l| l == link) {
+            break placed_links[i].body;
+        }
+    };
+    let weld = FixedJointBuilder::new()
+        .local_frame1(pose_from_na(&offset))
+        .contacts_enabled(false)
+        .build();
+    world
+        .impulse_joints
+        .insert(anchor, handles.links[root_position].body, weld, true);
+
+    let dofs = model.num_dofs();
+    let mut links = placed_links;
+    links.extend(handles.links);
+    link_sources.extend(gripper_sources);
+    Ok(KinematicBuild {
+        links,
+        link_sources,
+        joint_slots,
+        multibody,
+        arm: KinematicArm {
+            q: vec![0.0; dofs],
+            qd: vec![0.0; dofs],
+            blocked_steps: 0,
+            q_next: vec![0.0; dofs],
+            joint_positions: vec![0.0; model.joints().len()],
+            link_poses: vec![Isometry3::identity(); model.links().len()],
+        },
+    })
+}
+
+/// Where each joint of `model` landed in the multibody the URDF loader built, after giving the
+/// arm's and fingers' dofs their armature and coupling the mimic joints to their masters.
+fn build_multibody(
+    multibody_joints: &mut MultibodyJointSet,
+    model: &RobotModel,
+    config: &SimConfig,
+    joints: &[rapier3d_urdf::UrdfJointHandle<Option<rapier3d::dynamics::MultibodyJointHandle>>],
+    joint_sources: &[usize],
+    finger_joints: &[usize],
+    required: impl Fn(usize) -> bool,
+) -> Result<(Vec<Option<DofSlot>>, MultibodyIndex)> {
+    let mut joint_slots = vec![None; model.joints().len()];
+    let mut multibody = None;
+    for (handle, &joint) in joints.iter().zip(joint_sources) {
+        if handle.joint.is_none() {
+            continue;
+        }
+        let Some(link_id) = multibody_joints.rigid_body_link(handle.link2).copied() else {
+            continue;
+        };
+        multibody = Some(link_id.multibody);
+        let info = &model.joints()[joint];
+        let (coord, axis) = match info.joint_type {
+            JointType::Prismatic => (0, JointAxis::LinX),
+            JointType::Revolute | JointType::Continuous => (3, JointAxis::AngX),
+            JointType::Fixed => continue,
+        };
+        joint_slots[joint] = Some(DofSlot {
+            link_id: link_id.id,
+            coord,
+            axis,
+            child_body: handle.link2,
+            parent_body: handle.link1,
+        });
+    }
+    for j in model.joints() {
+        if j.joint_type.is_movable() && required(j.index) && joint_slots[j.index].is_none() {
+            return Err(Error::MalformedUrdf {
+                source_name: model.source().to_owned(),
+                reason: format!("joint `{}` could not be built as a multibody joint", j.name),
+            });
+        }
+    }
+    let multibody = multibody.ok_or_else(|| Error::MalformedUrdf {
+        source_name: model.source().to_owned(),
+        reason: "the robot has no movable joints".into(),
+    })?;
+
+    // Mimic joints (the second finger) follow their master through a holonomic coupling,
+    // like the real gripper's single drive, instead of two independently saturated motors
+    // that let a held cube drift sideways.
+    if let Some(mb) = multibody_joints.get_multibody_mut(multibody) {
+        for j in model.joints() {
+            let Some(slot) = joint_slots[j.index] else {
+                continue;
+            };
+            let armature = if finger_joints.contains(&j.index) {
+                config.motors.finger_armature
+            } else {
+                config.motors.arm_armature
+            };
+            if let Some(link) = mb.link(slot.link_id) {
+                let dof = link.assembly_id();
+                if dof < mb.armature().len() {
+                    mb.armature_mut()[dof] = armature as f32;
+                }
+            }
+        }
+        for j in model.joints() {
+            if let (Some(m), Some(slave)) = (j.mimic, joint_slots[j.index]) {
+                if let Some(master) = joint_slots[m.master] {
+                    mb.add_dof_coupling(MultibodyDofCoupling {
+                        link1: master.link_id,
+                        dof1: 0,
+                        axis1: master.coord,
+                        link2: slave.link_id,
+                        dof2: 0,
+                        axis2: slave.coord,
+                        coeff: m.multiplier as f32,
+                        offset: m.offset as f32,
+                    });
+                }
+            }
+        }
+    }
+
+    Ok((joint_slots, multibody))
 }
 
 /// The actuated prismatic joint that drives the fingers: `panda_finger_joint1` for the Panda,

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{invalid, non_negative, positive, SimConfig};
+use crate::config::{invalid, non_negative, positive, ArmModel, SimConfig};
 use crate::error::Result;
 
 /// How actions drive the robot.
@@ -272,9 +272,13 @@ pub struct EnvConfig {
     pub randomization: Randomization,
     /// Thresholds of the task predicates and of the blow-up detector.
     pub thresholds: TaskThresholds,
+    /// Fidelity of the arm's simulation: `dynamic` (the default: a torque-limited multibody)
+    /// or `kinematic` (Fetch-style: links follow the commanded trajectory, fingers and cube
+    /// dynamic; several times faster). See [`ArmModel`]. It sets `sim.arm`.
+    pub arm: ArmModel,
     /// The scene and the physics. The environment places the cube itself at every reset, so
     /// `sim.cube.position` is not used; `sim.solver.substeps` is derived from
-    /// `control_frequency`.
+    /// `control_frequency` and `sim.arm` from `arm`.
     pub sim: SimConfig,
 }
 
@@ -305,6 +309,7 @@ impl Default for EnvConfig {
             ee_surface_margin: 0.05,
             randomization: Randomization::default(),
             thresholds: TaskThresholds::default(),
+            arm: ArmModel::Dynamic,
             sim: SimConfig::default(),
         }
     }
@@ -355,6 +360,17 @@ impl EnvConfig {
     pub fn sim_config(&self) -> Result<SimConfig> {
         let mut sim = self.sim.clone();
         sim.solver.substeps = self.substeps()?;
+        if sim.arm != ArmModel::Dynamic && sim.arm != self.arm {
+            return Err(invalid(
+                "sim.arm",
+                format!(
+                    "is {:?} but arm is {:?}: set the top-level `arm` only",
+                    sim.arm.as_str(),
+                    self.arm.as_str()
+                ),
+            ));
+        }
+        sim.arm = self.arm;
         Ok(sim)
     }
 

@@ -74,6 +74,10 @@ pub struct StepInfo {
     pub ik_position_error: f64,
     /// Steps taken in this episode.
     pub elapsed_steps: u32,
+    /// The kinematic arm ([`crate::ArmModel::Kinematic`]) refused part of this step's motion
+    /// because a link would have entered the floor or the platform; always false for the
+    /// dynamic arm.
+    pub arm_blocked: bool,
 }
 
 /// The outcome of one step.
@@ -498,13 +502,15 @@ impl PickAndPlaceEnv {
     /// [`PickAndPlaceEnv::check_action`] on a running environment.
     pub(crate) fn step_checked(&mut self, action: &[f32]) -> Transition {
         let (ik_error, width) = self.plan_action(action);
+        let blocked_before = self.sim.arm_blocked_steps();
         self.drive(width);
         self.elapsed = self.elapsed.saturating_add(1);
         let stable = self.is_stable() && self.write_observation();
         if !stable {
             self.status = Status::Unstable;
         }
-        let (info, reward) = self.evaluate(!stable, ik_error);
+        let (mut info, reward) = self.evaluate(!stable, ik_error);
+        info.arm_blocked = self.sim.arm_blocked_steps() > blocked_before;
         self.info = info;
         Transition {
             reward,
@@ -694,6 +700,7 @@ impl PickAndPlaceEnv {
             terms: verdict.terms,
             ik_position_error: ik_error,
             elapsed_steps: self.elapsed,
+            arm_blocked: false,
         };
         (info, verdict.reward)
     }

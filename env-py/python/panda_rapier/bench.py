@@ -288,6 +288,7 @@ def run_benchmark(
     return {
         "machine": machine(),
         "env_id": env_id,
+        "config": config,
         "threads": threads,
         "rounds": rounds,
         "env_steps_per_run": env_steps,
@@ -322,7 +323,8 @@ def format_report(report: dict[str, Any]) -> str:
     lines = [
         f"machine: {report['machine']['cpus']} cpus, {report['machine']['processor']}, "
         f"{report['machine']['system']}, Python {report['machine']['python']}",
-        f"{report['env_id']}, medians of {report['rounds']} rounds, threads: "
+        f"{report['env_id']} ({report['config'].get('arm', 'dynamic')} arm), medians of "
+        f"{report['rounds']} rounds, threads: "
         f"{report['threads'] or 'all cores'}",
         "",
         f"{'target':<42} {'policy':<9} {'N':>4} {'env-steps/s':>12} {'sim-s/s':>9}",

@@ -71,6 +71,12 @@ def _parser() -> argparse.ArgumentParser:
         help="action mode, overriding the id's (default: the id's; for a model, the one its "
         "action space fits)",
     )
+    evaluation.add_argument(
+        "--arm",
+        choices=("dynamic", "kinematic"),
+        default=None,
+        help="fidelity level of the arm (default: the id's, dynamic)",
+    )
     evaluation.add_argument("--episodes", type=_positive, default=1000)
     evaluation.add_argument("--num-envs", type=_positive, default=32)
     evaluation.add_argument("--seed", type=_non_negative, default=0, help="first episode's seed")
@@ -97,6 +103,12 @@ def _parser() -> argparse.ArgumentParser:
         "side (grasp slip, tracking error, scripted placed rate).",
     )
     bench.add_argument("--env-id", choices=ENV_IDS, default=DEFAULT_ENV_ID)
+    bench.add_argument(
+        "--arm",
+        choices=("dynamic", "kinematic"),
+        default="dynamic",
+        help="fidelity level of the arm (default: dynamic, the full multibody)",
+    )
     bench.add_argument(
         "--num-envs", type=_positive, nargs="+", default=[1, 16, 64, 256], metavar="N"
     )
@@ -145,6 +157,7 @@ def _run_bench(args: argparse.Namespace) -> int:
             env_steps=args.env_steps,
             peers=not args.no_peers,
             progress=progress,
+            arm=args.arm,
         )
     print(format_report(report))
     if args.json is not None:
@@ -185,6 +198,8 @@ def _run_eval(args: argparse.Namespace) -> int:
         overrides["control_mode"] = args.control
     if args.max_episode_steps is not None:
         overrides["max_episode_steps"] = args.max_episode_steps
+    if args.arm is not None:
+        overrides["arm"] = args.arm
 
     if args.policy == "scripted":
         config = env_config(args.env_id or DEFAULT_ENV_ID, **overrides)
@@ -231,7 +246,8 @@ def _run_eval(args: argparse.Namespace) -> int:
     steps = summary["mean_steps_to_success"]
     print(
         f"policy {label} on {summary['episodes']} episodes "
-        f"({summary['control_mode']} control, {summary['reward_type']} reward, "
+        f"({summary['arm']} arm, {summary['control_mode']} control, "
+        f"{summary['reward_type']} reward, "
         f"{summary['max_episode_steps']} steps, seeds {args.seed}..{args.seed + args.episodes - 1})"
     )
     print(

@@ -122,6 +122,7 @@ class EvaluationReport:
             "first_seed": self.first_seed,
             "num_envs": self.num_envs,
             "num_threads": self.num_threads,
+            "arm": self.config.get("arm"),
             "control_mode": self.config.get("control_mode"),
             "reward_type": self.config.get("reward_type"),
             "max_episode_steps": self.config.get("max_episode_steps"),

@@ -1,0 +1,198 @@
+//! The Fetch-style arm of [`ArmModel::Kinematic`]: links placed along the commanded joint
+//! trajectory, fingers left to the physics.
+
+use nalgebra::Isometry3;
+use rapier3d::math::Vector;
+use rapier3d::parry::query::intersection_test;
+
+use super::convert::pose_from_na;
+use super::{JointControl, JointState, KinematicArm, Simulation};
+use crate::config::ArmModel;
+use crate::error::{Error, Result};
+
+impl Simulation {
+    /// How the arm is simulated.
+    pub fn arm_model(&self) -> ArmModel {
+        self.config.arm
+    }
+
+    /// Physics steps (since construction) in which the kinematic arm refused a motion that
+    /// would have taken one of its links into the floor or the platform; always 0 for the
+    /// dynamic arm, whose links collide with the scenery instead.
+    pub fn arm_blocked_steps(&self) -> u64 {
+        self.kinematic.as_ref().map_or(0, |arm| arm.blocked_steps)
+    }
+
+    pub(super) fn check_supported(&self, control: &JointControl, joint: usize) -> Result<()> {
+        if self.kinematic.is_some() && matches!(control, JointControl::Torque(_)) {
+            return Err(Error::JointNotCommandable {
+                name: self.model.joints()[joint].name.clone(),
+                reason: "torque control needs the dynamic arm (`arm = \"dynamic\"`); the \
+                         kinematic arm follows position and velocity commands"
+                    .into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// The arm joints report the trajectory the links were placed along.
+    pub(super) fn read_kinematic_joint(&self, arm: &KinematicArm, joint: usize) -> JointState {
+        let info = &self.model.joints()[joint];
+        match info.dof {
+            Some(dof) => JointState {
+                position: arm.q[dof],
+                velocity: arm.qd[dof],
+            },
+            None => JointState {
+                position: self.model.joint_position(joint, &arm.q),
+                velocity: 0.0,
+            },
+        }
+    }
+
+    /// Puts every link at configuration `q`, at rest (the gripper's multibody then follows its
+    /// root).
+    pub(super) fn teleport_kinematic_arm(&mut self, q: &[f64]) {
+        let Some(mut arm) = self.kinematic.take() else {
+            return;
+        };
+        arm.q.copy_from_slice(q);
+        arm.qd.fill(0.0);
+        self.model
+            .link_poses_into(q, &self.base, &mut arm.joint_positions, &mut arm.link_poses);
+        for (link, body) in self.link_bodies.iter().enumerate() {
+            let Some(rb) = body.and_then(|b| self.world.bodies.get_mut(b)) else {
+                continue;
+            };
+            let pose = pose_from_na(&arm.link_poses[link]);
+            rb.set_position(pose, true);
+            if rb.is_kinematic() {
+                rb.set_next_kinematic_position(pose);
+            }
+            rb.set_linvel(Vector::ZERO, true);
+            rb.set_angvel(Vector::ZERO, true);
+        }
+        self.kinematic = Some(arm);
+    }
+
+    /// Moves the arm's joints one physics step along their commands (the dynamic arm's PD law,
+    /// velocity and acceleration limited) and places the links there, unless a link would enter
+    /// the floor or the platform: then the arm stops where it is and the step is counted in
+    /// [`Simulation::arm_blocked_steps`].
+    pub(super) fn advance_kinematic_arm(&mut self) {
+        let Some(mut arm) = self.kinematic.take() else {
+            return;
+        };
+        let dt = self.config.solver.dt;
+        let max_dv = self.config.motors.kinematic_acceleration * dt;
+        let motors = &self.config.motors;
+        let (stiffness, damping) = (motors.stiffness, motors.damping);
+        let velocity_damping = motors.velocity_damping;
+        let gripper = self.gripper_dof();
+        let mut velocities = std::mem::take(&mut arm.qd);
+        for (dof, velocity) in velocities.iter_mut().enumerate() {
+            let (q, v) = (arm.q[dof], *velocity);
+            if Some(dof) == gripper {
+                arm.q_next[dof] = q;
+                continue;
+            }
+            let joint = &self.model.joints()[self.model.actuated_joints()[dof]];
+            let v_max = if joint.max_velocity > 0.0 {
+                joint.max_velocity
+            } else {
+                f64::INFINITY
+            };
+            // The dynamic arm's joint motors as an implicit (unconditionally stable) PD law,
+            // limited in acceleration and velocity: free-space motion tracks as the dynamic arm
+            // tracks, without its dynamics.
+            let v_wanted = match self.controls[dof] {
+                JointControl::Position {
+                    target,
+                    target_velocity,
+                    ..
+                } => {
+                    let error = joint.clamp(target) - q;
+                    (v + dt * (stiffness * error + damping * target_velocity))
+                        / (1.0 + dt * damping + dt * dt * stiffness)
+                }
+                JointControl::Velocity { target, .. } => {
+                    (v + dt * velocity_damping * target) / (1.0 + dt * velocity_damping)
+                }
+                JointControl::Torque(_) => 0.0,
+            };
+            let mut v_next = v + (v_wanted - v).clamp(-max_dv, max_dv);
+            v_next = v_next.clamp(-v_max, v_max);
+            let mut q_next = q + v_next * dt;
+            if q_next < joint.lower || q_next > joint.upper {
+                q_next = joint.clamp(q_next);
+                v_next = 0.0;
+            }
+            arm.q_next[dof] = q_next;
+            *velocity = v_next;
+        }
+        // The fingers are dynamic: their joints keep whatever the physics gives them.
+        if let Some(g) = gripper {
+            arm.q_next[g] = self.read_joint(self.model.actuated_joints()[g]).position;
+        }
+        arm.qd = velocities;
+
+        self.model.link_poses_into(
+            &arm.q_next,
+            &self.base,
+            &mut arm.joint_positions,
+            &mut arm.link_poses,
+        );
+        if self.links_enter_scenery(&arm.link_poses) {
+            // Refuse the motion unless the arm is in the scenery already (say after a teleport),
+            // where any motion must stay possible to get out.
+            let mut now = arm.link_poses.clone();
+            self.model
+                .link_poses_into(&arm.q, &self.base, &mut arm.joint_positions, &mut now);
+            if !self.links_enter_scenery(&now) {
+                arm.link_poses = now;
+                arm.q_next.copy_from_slice(&arm.q);
+                arm.qd.fill(0.0);
+                arm.blocked_steps += 1;
+            }
+        }
+        std::mem::swap(&mut arm.q, &mut arm.q_next);
+        for (link, body) in self.link_bodies.iter().enumerate() {
+            if let Some(rb) = body.and_then(|b| self.world.bodies.get_mut(b)) {
+                if rb.is_kinematic() {
+                    rb.set_next_kinematic_position(pose_from_na(&arm.link_poses[link]));
+                }
+            }
+        }
+        self.kinematic = Some(arm);
+    }
+
+    /// Whether any robot link, at `link_poses`, intersects the floor or the platform (the
+    /// fingers count: pushed into a surface they would drag the welded gripper along).
+    fn links_enter_scenery(&self, link_poses: &[Isometry3<f64>]) -> bool {
+        let colliders = &self.world.colliders;
+        let (Some(floor), Some(platform)) = (
+            colliders.get(self.floor_collider),
+            colliders.get(self.platform_collider),
+        ) else {
+            return false;
+        };
+        self.robot_colliders.iter().any(|&(handle, link)| {
+            let Some(collider) = colliders.get(handle) else {
+                return false;
+            };
+            let local = collider.position_wrt_parent().copied().unwrap_or_default();
+            let pose = pose_from_na(&link_poses[link]) * local;
+            [floor, platform].iter().any(|scenery| {
+                // Pairs the collision filter skips (the base standing on the floor) don't count.
+                collider.collision_groups().test(scenery.collision_groups())
+                    && intersection_test(
+                        &pose,
+                        collider.shape(),
+                        scenery.position(),
+                        scenery.shape(),
+                    )
+                    .is_ok_and(|hit| hit.intersecting)
+            })
+        })
+    }
+}
