@@ -193,7 +193,7 @@ def test_kinematic_arm_passes_the_checker_and_reports_blocked_motion(env_id: str
     for _ in range(5):
         _, _, _, _, info = env.step(env.action_space.sample())
         assert isinstance(info["arm_blocked"], bool)
-    with pytest.raises(panda_rapier.ConfigError, match="dynamic. or .kinematic"):
+    with pytest.raises(panda_rapier.ConfigError, match=r"`dynamic` or `kinematic`"):
         gym.make(env_id, arm="teleport")
 
 

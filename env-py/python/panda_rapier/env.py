@@ -116,7 +116,8 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         native_seed = _common.as_seed(seed)
-        super().reset(seed=seed)
+        # Gymnasium's seeding takes Python ints only; numpy integers were validated above.
+        super().reset(seed=native_seed)
         options_json = None
         if options:
             if not isinstance(options, dict):
