@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 import subprocess
 import sys
@@ -53,3 +54,12 @@ def test_training_scripts_save_checkpoints_that_evaluate_loads(tmp_path: Path) -
         report = run("-m", "panda_rapier.cli", "eval", "--policy", out / "model.zip",
                      "--episodes", "4", "--num-envs", "2")  # fmt: skip
         assert re.search(r"success rate +\d\.\d{3} \(95 % CI", report), report
+
+
+def test_soak_script_reports_memory_and_speed(tmp_path: Path) -> None:
+    out = run(ROOT / "examples/soak.py", "--steps", "256", "--every", "128", "--n-envs", "16",
+              "--no-progress", "--out", tmp_path)  # fmt: skip
+    assert "memory growth after warm-up" in out
+    report = json.loads((tmp_path / "soak.json").read_text())
+    assert report["env_steps"] == 256 and len(report["samples"]) == 2
+    assert all(s["rss_mib"] > 0 and s["env_steps_per_s"] > 0 for s in report["samples"])
