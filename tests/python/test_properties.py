@@ -27,6 +27,9 @@ from panda_rapier import (
     ScriptedPolicy,
 )
 
+# hypothesis itself warns when it squeezes generated floats into float16 or float32 arrays.
+pytestmark = pytest.mark.filterwarnings("ignore:overflow encountered in cast:RuntimeWarning")
+
 FAST = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 DTYPES = st.sampled_from(

@@ -65,6 +65,19 @@ def _config_of(source: Any) -> dict[str, Any]:
     )
 
 
+def _real32(value: Any, what: str) -> np.ndarray:
+    """``value`` as float32, refusing non-real data. Values beyond float32's range become
+    infinite here and are refused, with the entry named, by the native side."""
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError) as error:
+        raise InvalidArgumentError(f"{what} must be numeric: {error}") from error
+    if array.dtype.kind not in "fiub":
+        raise InvalidArgumentError(f"{what} must hold real numbers, got dtype {array.dtype}")
+    with np.errstate(over="ignore"):
+        return array.astype(np.float32)
+
+
 class ScriptedPolicy:
     """The scripted baseline for one environment configuration.
 
@@ -96,7 +109,7 @@ class ScriptedPolicy:
             missing = [key for key in _OBSERVATION_KEYS if key not in observation]
             if missing:
                 raise InvalidArgumentError(f"observation dict lacks the keys {missing}")
-            parts = [np.asarray(observation[key], dtype=np.float32) for key in _OBSERVATION_KEYS]
+            parts = [_real32(observation[key], key) for key in _OBSERVATION_KEYS]
             single = parts[0].ndim == 1
             try:
                 flat = np.concatenate([np.atleast_2d(part) for part in parts], axis=-1)
@@ -105,13 +118,7 @@ class ScriptedPolicy:
                     f"observation entries do not line up: {[p.shape for p in parts]}"
                 ) from error
         else:
-            try:
-                flat = np.asarray(observation, dtype=np.float32)
-            except (TypeError, ValueError) as error:
-                raise InvalidArgumentError(
-                    f"observation must be a dict of arrays or a flat array, got "
-                    f"{type(observation).__name__}"
-                ) from error
+            flat = _real32(observation, "observation")
             single = flat.ndim == 1
             flat = np.atleast_2d(flat)
         if flat.ndim != 2 or flat.shape[1] != dim:
