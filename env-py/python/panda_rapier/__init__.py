@@ -21,12 +21,14 @@ from .env import PickAndPlaceEnv
 from .errors import (
     AssetError,
     ConfigError,
+    DisplayError,
     InvalidActionError,
     InvalidArgumentError,
     PandaRapierError,
     ResetNeededError,
 )
 from .policy import ScriptedPolicy
+from .rendering import RENDER_MODES
 from .registration import ENV_IDS, MAX_EPISODE_STEPS, env_config, register_envs
 from .robot import Robot
 from .vector import PickAndPlaceVectorEnv
@@ -34,8 +36,10 @@ from .vector import PickAndPlaceVectorEnv
 __all__ = [
     "ENV_IDS",
     "MAX_EPISODE_STEPS",
+    "RENDER_MODES",
     "AssetError",
     "ConfigError",
+    "DisplayError",
     "InvalidActionError",
     "InvalidArgumentError",
     "PandaRapierError",
