@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 /// | field | default | meaning |
 /// |---|---|---|
 /// | `target` | `[0.45, 0.05, 0.1]` | the point looked at (m) |
-/// | `distance` | `1.5` | eye to target (m), orbit only |
+/// | `distance` | `1.35` | eye to target (m), orbit only |
 /// | `azimuth` | `35` | degrees about z from +x to the eye, orbit only |
 /// | `elevation` | `30` | degrees of the eye above the target's horizontal plane, orbit only |
 /// | `eye` | none | the eye position (m); excludes the three orbit fields |
@@ -95,7 +95,7 @@ impl Camera {
                 finite3("eye", eye)?
             }
             None => {
-                let distance = finite("distance", config.distance.unwrap_or(1.5))?;
+                let distance = finite("distance", config.distance.unwrap_or(1.35))?;
                 if distance < NEAR * 2.0 || distance > 1e4 {
                     return Err(invalid(
                         "distance",

@@ -3,6 +3,7 @@ errors, the human-mode window under Xvfb, and videos written by ``panda-rapier e
 
 from __future__ import annotations
 
+import itertools
 import os
 import shutil
 import subprocess
@@ -43,7 +44,9 @@ def project(point: np.ndarray, width: int, height: int, fov: float = 45.0) -> tu
 
 
 def window(frame: np.ndarray, column: int, row: int, radius: int) -> np.ndarray:
-    return frame[max(row - radius, 0) : row + radius + 1, max(column - radius, 0) : column + radius + 1]
+    return frame[
+        max(row - radius, 0) : row + radius + 1, max(column - radius, 0) : column + radius + 1
+    ]
 
 
 def is_cube_colour(pixels: np.ndarray) -> np.ndarray:
@@ -81,7 +84,7 @@ def test_the_cube_and_the_robot_are_where_they_should_be() -> None:
     assert np.abs(rows - row).max() < 40 and np.abs(columns - column).max() < 40
     # The hand is dark grey among the light links, floor and sky.
     hand = env.unwrapped.robot.link_state("panda_hand")["position"]
-    column, row = project(np.asarray(hand) + [0.0, 0.0, 0.03], width, height)
+    column, row = project(np.asarray(hand) + np.array([0.0, 0.0, 0.03]), width, height)
     patch = window(frame, column, row, 3).astype(int)
     assert (patch.max(axis=-1) < 95).mean() > 0.5, patch
     # Move the cube: the red pixels follow it.
@@ -324,7 +327,7 @@ def test_eval_writes_a_video(
     assert f"{len(frames)} frames written" in result.stdout
     width, height = size
     assert frames[0].shape == (height, width, 3)
-    differences = [np.abs(a.astype(int) - b).mean() for a, b in zip(frames, frames[1:])]
+    differences = [np.abs(a.astype(int) - b).mean() for a, b in itertools.pairwise(frames)]
     assert sum(d > 0.05 for d in differences) > len(frames) // 3
     assert np.abs(frames[0].astype(int) - frames[40]).mean() > 0.5
 

@@ -28,8 +28,8 @@ from .errors import (
     ResetNeededError,
 )
 from .policy import ScriptedPolicy
-from .rendering import RENDER_MODES
 from .registration import ENV_IDS, MAX_EPISODE_STEPS, env_config, register_envs
+from .rendering import RENDER_MODES
 from .robot import Robot
 from .vector import PickAndPlaceVectorEnv
 

@@ -42,7 +42,9 @@ def _size(text: str) -> tuple[int, int]:
     try:
         width, height = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"must be WIDTHxHEIGHT, e.g. 720x480, got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"must be WIDTHxHEIGHT, e.g. 720x480, got {text!r}"
+        ) from None
     if width < 1 or height < 1:
         raise argparse.ArgumentTypeError(f"sizes must be >= 1, got {text!r}")
     return width, height
