@@ -141,3 +141,16 @@ fn unusual_cameras_draw_without_panicking() {
         assert_eq!(r.render(&env).rgb().len(), 64 * 48 * 3);
     }
 }
+
+#[test]
+fn a_reset_is_drawn_before_any_step() {
+    // Resets teleport the cube; the picture must show it where the observation says.
+    let env = env(5);
+    let mut primitives = Vec::new();
+    env.simulation().visual_primitives(&mut primitives);
+    let cube = primitives.iter().find(|p| p.tag == VisualTag::Cube).unwrap();
+    let observed = &env.observation()[env.layout().achieved_goal()];
+    for k in 0..3 {
+        assert!((cube.pose.translation.vector[k] - f64::from(observed[k])).abs() < 1e-6);
+    }
+}

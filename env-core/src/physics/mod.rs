@@ -1140,9 +1140,20 @@ impl Simulation {
     /// touching the physics engine.
     pub fn visual_primitives(&self, out: &mut Vec<VisualPrimitive>) {
         let mut push = |handle: ColliderHandle, tag: VisualTag| {
-            if let Some(collider) = self.world.colliders.get(handle) {
-                push_visual(collider.shape(), &pose_to_na(collider.position()), tag, out);
-            }
+            let Some(collider) = self.world.colliders.get(handle) else {
+                return;
+            };
+            // A collider's own pose is synchronised with its body only when the world steps;
+            // after a teleport (a reset) the body already is where it should be drawn.
+            let parent = collider
+                .parent()
+                .and_then(|b| self.world.bodies.get(b))
+                .zip(collider.position_wrt_parent());
+            let pose = match parent {
+                Some((body, local)) => pose_to_na(body.position()) * pose_to_na(local),
+                None => pose_to_na(collider.position()),
+            };
+            push_visual(collider.shape(), &pose, tag, out);
         };
         push(self.floor_collider, VisualTag::Floor);
         push(self.platform_collider, VisualTag::Platform);
