@@ -28,12 +28,19 @@ fn render(c: &mut Criterion) {
             ..RenderConfig::default()
         })
         .unwrap();
-        group.bench_function(BenchmarkId::from_parameter(format!("{width}x{height}")), |b| {
-            b.iter(|| renderer.render(&env).rgb().len())
-        });
+        group.bench_function(
+            BenchmarkId::from_parameter(format!("{width}x{height}")),
+            |b| b.iter(|| renderer.render(&env).rgb().len()),
+        );
     }
     group.finish();
 }
 
-criterion_group!(benches, render);
+// criterion_group! generates an undocumented public function.
+#[allow(missing_docs)]
+mod group {
+    use super::*;
+    criterion_group!(benches, render);
+}
+use group::benches;
 criterion_main!(benches);

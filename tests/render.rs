@@ -4,7 +4,7 @@
 
 use panda_rapier::render::{CameraConfig, RenderConfig, Renderer};
 use panda_rapier::task::{EnvConfig, PickAndPlaceEnv, ResetOptions};
-use panda_rapier::{Simulation, SimConfig, VisualShape, VisualTag};
+use panda_rapier::{SimConfig, Simulation, VisualShape, VisualTag};
 
 fn env(seed: u64) -> PickAndPlaceEnv {
     let mut env = PickAndPlaceEnv::new(EnvConfig::default()).unwrap();
@@ -37,13 +37,22 @@ fn visual_primitives_describe_every_collider_at_its_pose() {
     let robot: usize = sim.link_states().iter().map(|l| l.num_colliders).sum();
     assert_eq!(count(&|t| matches!(t, VisualTag::RobotLink { .. })), robot);
     assert!(count(&|t| matches!(t, VisualTag::RobotLink { finger: true, .. })) >= 2);
-    let cube = primitives.iter().find(|p| p.tag == VisualTag::Cube).unwrap();
+    let cube = primitives
+        .iter()
+        .find(|p| p.tag == VisualTag::Cube)
+        .unwrap();
     assert!((cube.pose.translation.vector - sim.cube_state().position).norm() < 1e-6);
     let half = sim.config().cube.size / 2.0;
-    assert!(matches!(cube.shape, VisualShape::Box { half_extents } if (half_extents.x - half).abs() < 1e-6));
+    assert!(
+        matches!(cube.shape, VisualShape::Box { half_extents } if (half_extents.x - half).abs() < 1e-6)
+    );
     // The Panda's links are capsules, cylinders and boxes, and every pose is finite.
-    assert!(primitives.iter().any(|p| matches!(p.shape, VisualShape::Capsule { .. })));
-    assert!(primitives.iter().any(|p| matches!(p.shape, VisualShape::Cylinder { .. })));
+    assert!(primitives
+        .iter()
+        .any(|p| matches!(p.shape, VisualShape::Capsule { .. })));
+    assert!(primitives
+        .iter()
+        .any(|p| matches!(p.shape, VisualShape::Cylinder { .. })));
     for p in &primitives {
         assert!(p.pose.translation.vector.iter().all(|x| x.is_finite()));
     }
@@ -58,7 +67,11 @@ fn the_cube_is_drawn_where_it_is() {
     let frame = renderer.render(&env);
     let (x, y) = (x as u32, y as u32);
     for (dx, dy) in [(0, 0), (2, 0), (0, 2)] {
-        assert!(is_cube_colour(frame.pixel(x + dx, y + dy)), "{:?}", frame.pixel(x + dx, y + dy));
+        assert!(
+            is_cube_colour(frame.pixel(x + dx, y + dy)),
+            "{:?}",
+            frame.pixel(x + dx, y + dy)
+        );
     }
     // And only there: no other red in the scene.
     let mut far = 0;
@@ -148,9 +161,12 @@ fn a_reset_is_drawn_before_any_step() {
     let env = env(5);
     let mut primitives = Vec::new();
     env.simulation().visual_primitives(&mut primitives);
-    let cube = primitives.iter().find(|p| p.tag == VisualTag::Cube).unwrap();
+    let cube = primitives
+        .iter()
+        .find(|p| p.tag == VisualTag::Cube)
+        .unwrap();
     let observed = &env.observation()[env.layout().achieved_goal()];
-    for k in 0..3 {
-        assert!((cube.pose.translation.vector[k] - f64::from(observed[k])).abs() < 1e-6);
+    for (drawn, seen) in cube.pose.translation.vector.iter().zip(observed) {
+        assert!((drawn - f64::from(*seen)).abs() < 1e-6);
     }
 }

@@ -10,10 +10,10 @@ use serde::{Deserialize, Serialize};
 ///
 /// | field | default | meaning |
 /// |---|---|---|
-/// | `target` | `[0.45, 0.05, 0.1]` | the point looked at (m) |
-/// | `distance` | `1.35` | eye to target (m), orbit only |
-/// | `azimuth` | `35` | degrees about z from +x to the eye, orbit only |
-/// | `elevation` | `30` | degrees of the eye above the target's horizontal plane, orbit only |
+/// | `target` | `[0.35, 0.05, 0.28]` | the point looked at (m) |
+/// | `distance` | `1.4` | eye to target (m), orbit only |
+/// | `azimuth` | `40` | degrees about z from +x to the eye, orbit only |
+/// | `elevation` | `25` | degrees of the eye above the target's horizontal plane, orbit only |
 /// | `eye` | none | the eye position (m); excludes the three orbit fields |
 /// | `fov` | `45` | vertical field of view (degrees, 1 to 170) |
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -70,16 +70,23 @@ pub struct Camera {
     pub fov_y: f64,
 }
 
+/// The default camera's target: the middle of the workspace, so the arm in its ready pose,
+/// the pick region and the platform are all in the picture.
+pub const DEFAULT_TARGET: [f64; 3] = [0.35, 0.05, 0.28];
+
 /// Nothing closer to the eye than this is drawn (m).
 pub const NEAR: f64 = 0.01;
 
 impl Camera {
     /// Resolves and validates `config`; bad values are [`Error::InvalidConfig`] naming the field.
     pub fn new(config: &CameraConfig) -> Result<Self> {
-        let target = finite3("target", config.target.unwrap_or([0.45, 0.05, 0.1]))?;
+        let target = finite3("target", config.target.unwrap_or(DEFAULT_TARGET))?;
         let fov = finite("fov", config.fov.unwrap_or(45.0))?;
         if !(1.0..=170.0).contains(&fov) {
-            return Err(invalid("fov", format!("must be in [1, 170] degrees, got {fov}")));
+            return Err(invalid(
+                "fov",
+                format!("must be in [1, 170] degrees, got {fov}"),
+            ));
         }
         let eye = match config.eye {
             Some(eye) => {
@@ -95,15 +102,15 @@ impl Camera {
                 finite3("eye", eye)?
             }
             None => {
-                let distance = finite("distance", config.distance.unwrap_or(1.35))?;
-                if distance < NEAR * 2.0 || distance > 1e4 {
+                let distance = finite("distance", config.distance.unwrap_or(1.4))?;
+                if !(NEAR * 2.0..=1e4).contains(&distance) {
                     return Err(invalid(
                         "distance",
                         format!("must be in [{}, 1e4] m, got {distance}", NEAR * 2.0),
                     ));
                 }
-                let azimuth = finite("azimuth", config.azimuth.unwrap_or(35.0))?.to_radians();
-                let elevation = finite("elevation", config.elevation.unwrap_or(30.0))?;
+                let azimuth = finite("azimuth", config.azimuth.unwrap_or(40.0))?.to_radians();
+                let elevation = finite("elevation", config.elevation.unwrap_or(25.0))?;
                 if !(-90.0..=90.0).contains(&elevation) {
                     return Err(invalid(
                         "elevation",
@@ -128,14 +135,21 @@ impl Camera {
     pub fn look_at(eye: Vector3<f64>, target: Vector3<f64>, fov_y: f64) -> Result<Self> {
         let offset = target - eye;
         let distance = offset.norm();
-        if !(distance >= NEAR * 2.0) || !distance.is_finite() {
+        // NaN fails `contains` too.
+        if !(NEAR * 2.0..=f64::MAX).contains(&distance) {
             return Err(invalid(
                 "eye",
-                format!("must be at least {} m from the target, got {distance}", NEAR * 2.0),
+                format!(
+                    "must be at least {} m from the target, got {distance}",
+                    NEAR * 2.0
+                ),
             ));
         }
         if !(fov_y > 0.0 && fov_y < std::f64::consts::PI) {
-            return Err(invalid("fov", format!("must be in (0, pi) rad, got {fov_y}")));
+            return Err(invalid(
+                "fov",
+                format!("must be in (0, pi) rad, got {fov_y}"),
+            ));
         }
         let forward = offset / distance;
         let mut right = forward.cross(&Vector3::z());
@@ -186,11 +200,16 @@ mod tests {
     #[test]
     fn target_projects_to_the_centre_and_up_is_up() {
         let cam = Camera::new(&CameraConfig::default()).unwrap();
-        let target = Vector3::new(0.45, 0.05, 0.1);
+        let target = Vector3::from(DEFAULT_TARGET);
         let [x, y] = cam.project(&target, 720, 480).unwrap();
         assert!((x - 360.0).abs() < 1e-9 && (y - 240.0).abs() < 1e-9);
-        let [_, y_above] = cam.project(&(target + Vector3::z() * 0.1), 720, 480).unwrap();
-        assert!(y_above < y, "a point above the target is higher in the picture");
+        let [_, y_above] = cam
+            .project(&(target + Vector3::z() * 0.1), 720, 480)
+            .unwrap();
+        assert!(
+            y_above < y,
+            "a point above the target is higher in the picture"
+        );
         assert!(cam.project(&(cam.eye - cam.forward), 720, 480).is_none());
     }
 
@@ -215,7 +234,7 @@ mod tests {
         }
         let bad = [
             CameraConfig {
-                eye: Some([0.45, 0.05, 0.1]),
+                eye: Some(DEFAULT_TARGET),
                 ..Default::default()
             },
             CameraConfig {
@@ -246,7 +265,10 @@ mod tests {
         ];
         for config in bad {
             let err = Camera::new(&config).unwrap_err();
-            assert!(matches!(err, Error::InvalidConfig { ref field, .. } if field.starts_with("camera.")), "{err}");
+            assert!(
+                matches!(err, Error::InvalidConfig { ref field, .. } if field.starts_with("camera.")),
+                "{err}"
+            );
         }
     }
 }

@@ -100,7 +100,10 @@ fn round(radius: f64, half_height: f64, out: &mut Vec<Triangle>) {
         let (lat, shift) = if stack <= STACKS / 2 {
             (-FRAC_PI_2 + PI * stack as f64 / STACKS as f64, -half_height)
         } else {
-            (-FRAC_PI_2 + PI * (stack - 1) as f64 / STACKS as f64, half_height)
+            (
+                -FRAC_PI_2 + PI * (stack - 1) as f64 / STACKS as f64,
+                half_height,
+            )
         };
         let lon = TAU * slice as f64 / SLICES as f64;
         Vector3::new(
@@ -149,10 +152,17 @@ mod tests {
         let h = Vector3::new(0.1, 0.2, 0.3);
         let mut tris = Vec::new();
         tessellate(&VisualShape::Box { half_extents: h }, &mut tris);
-        let volume: f64 = tris.iter().map(|t| t[0].dot(&t[1].cross(&t[2])) / 6.0).sum();
+        let volume: f64 = tris
+            .iter()
+            .map(|t| t[0].dot(&t[1].cross(&t[2])) / 6.0)
+            .sum();
         assert!((volume - 8.0 * 0.1 * 0.2 * 0.3).abs() < 1e-12);
         let sphere_volume = 4.0 / 3.0 * PI;
-        check_closed_outward(&VisualShape::Sphere { radius: 1.0 }, 0.8 * sphere_volume, 1.0);
+        check_closed_outward(
+            &VisualShape::Sphere { radius: 1.0 },
+            0.8 * sphere_volume,
+            1.0,
+        );
         check_closed_outward(
             &VisualShape::Capsule {
                 half_height: 1.0,

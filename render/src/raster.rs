@@ -119,12 +119,7 @@ impl Frame {
 
 /// Calls `f(x, y, inv_depth)` for every pixel whose centre lies inside the triangle (either
 /// winding), clipped to the `width` x `height` picture.
-fn rasterize(
-    width: u32,
-    height: u32,
-    v: &[ScreenVertex; 3],
-    mut f: impl FnMut(usize, usize, f32),
-) {
+fn rasterize(width: u32, height: u32, v: &[ScreenVertex; 3], mut f: impl FnMut(usize, usize, f32)) {
     if width == 0 || height == 0 {
         return;
     }
@@ -133,8 +128,9 @@ fn rasterize(
         (q.x - p.x) * (y - p.y) - (q.y - p.y) * (x - p.x)
     };
     let area = edge(a, b, c.x, c.y);
-    if !(area.abs() > 1e-12) {
-        return; // degenerate (or NaN) triangle
+    // Degenerate, or NaN (which fails every comparison).
+    if area.is_nan() || area.abs() <= 1e-12 {
+        return;
     }
     // Bounding box of the pixel centres the triangle can cover, clipped to the picture.
     let min_x = a.x.min(b.x).min(c.x) - 0.5;
@@ -202,7 +198,10 @@ mod tests {
         let mut frame = Frame::new(8, 8);
         frame.clear(&[[0, 0, 0]; 8]);
         // Corners at pixel edges: pixel (x, y) is inside when its centre is, x + y <= 7.
-        frame.fill_triangle(&[v(0.0, 0.0, 1.0), v(8.0, 0.0, 1.0), v(0.0, 8.0, 1.0)], [255, 0, 0]);
+        frame.fill_triangle(
+            &[v(0.0, 0.0, 1.0), v(8.0, 0.0, 1.0), v(0.0, 8.0, 1.0)],
+            [255, 0, 0],
+        );
         let got = covered(&frame, [255, 0, 0]);
         let expected: Vec<(u32, u32)> = (0..8u32)
             .flat_map(|y| (0..8u32).map(move |x| (x, y)))
@@ -212,7 +211,10 @@ mod tests {
         // Winding does not matter.
         let mut other = Frame::new(8, 8);
         other.clear(&[[0, 0, 0]; 8]);
-        other.fill_triangle(&[v(0.0, 0.0, 1.0), v(0.0, 8.0, 1.0), v(8.0, 0.0, 1.0)], [255, 0, 0]);
+        other.fill_triangle(
+            &[v(0.0, 0.0, 1.0), v(0.0, 8.0, 1.0), v(8.0, 0.0, 1.0)],
+            [255, 0, 0],
+        );
         assert_eq!(other, frame);
     }
 
@@ -223,8 +225,22 @@ mod tests {
         for order in [[near, far], [far, near]] {
             let mut frame = Frame::new(10, 10);
             frame.clear(&[[0, 0, 0]; 10]);
-            frame.fill_triangle(&order[0], if order[0] == near { [1, 1, 1] } else { [2, 2, 2] });
-            frame.fill_triangle(&order[1], if order[1] == near { [1, 1, 1] } else { [2, 2, 2] });
+            frame.fill_triangle(
+                &order[0],
+                if order[0] == near {
+                    [1, 1, 1]
+                } else {
+                    [2, 2, 2]
+                },
+            );
+            frame.fill_triangle(
+                &order[1],
+                if order[1] == near {
+                    [1, 1, 1]
+                } else {
+                    [2, 2, 2]
+                },
+            );
             assert_eq!(frame.pixel(1, 1), [1, 1, 1]);
             assert!((frame.depth(1, 1) - 1.0).abs() < 1e-6);
             assert!(frame.depth(9, 9).is_infinite());
@@ -236,12 +252,28 @@ mod tests {
         let mut frame = Frame::new(4, 4);
         frame.clear(&[[0, 0, 0]; 4]);
         let before = frame.clone();
-        frame.fill_triangle(&[v(-10.0, -10.0, 1.0), v(-5.0, -10.0, 1.0), v(-10.0, -5.0, 1.0)], [9, 9, 9]);
-        frame.fill_triangle(&[v(0.0, 0.0, 1.0), v(4.0, 4.0, 1.0), v(2.0, 2.0, 1.0)], [9, 9, 9]);
-        frame.fill_triangle(&[v(f32::NAN, 0.0, 1.0), v(4.0, 0.0, 1.0), v(0.0, 4.0, 1.0)], [9, 9, 9]);
+        frame.fill_triangle(
+            &[
+                v(-10.0, -10.0, 1.0),
+                v(-5.0, -10.0, 1.0),
+                v(-10.0, -5.0, 1.0),
+            ],
+            [9, 9, 9],
+        );
+        frame.fill_triangle(
+            &[v(0.0, 0.0, 1.0), v(4.0, 4.0, 1.0), v(2.0, 2.0, 1.0)],
+            [9, 9, 9],
+        );
+        frame.fill_triangle(
+            &[v(f32::NAN, 0.0, 1.0), v(4.0, 0.0, 1.0), v(0.0, 4.0, 1.0)],
+            [9, 9, 9],
+        );
         assert_eq!(frame, before);
         // Huge triangles are clipped to the picture.
-        frame.fill_triangle(&[v(-1e6, -1e6, 1.0), v(1e6, -1e6, 1.0), v(0.0, 1e6, 1.0)], [9, 9, 9]);
+        frame.fill_triangle(
+            &[v(-1e6, -1e6, 1.0), v(1e6, -1e6, 1.0), v(0.0, 1e6, 1.0)],
+            [9, 9, 9],
+        );
         assert_eq!(covered(&frame, [9, 9, 9]).len(), 16);
     }
 
@@ -249,7 +281,10 @@ mod tests {
     fn shadows_mark_only_the_surface_they_lie_on() {
         let mut frame = Frame::new(10, 10);
         frame.clear(&[[200, 200, 200]; 10]);
-        frame.fill_triangle(&[v(0.0, 0.0, 2.0), v(10.0, 0.0, 2.0), v(0.0, 10.0, 2.0)], [200, 200, 200]);
+        frame.fill_triangle(
+            &[v(0.0, 0.0, 2.0), v(10.0, 0.0, 2.0), v(0.0, 10.0, 2.0)],
+            [200, 200, 200],
+        );
         // A shadow at the same depth darkens; one behind the surface does not.
         frame.mark_shadow(&[v(0.0, 0.0, 2.0), v(4.0, 0.0, 2.0), v(0.0, 4.0, 2.0)]);
         frame.mark_shadow(&[v(5.0, 0.0, 3.0), v(9.0, 0.0, 3.0), v(5.0, 4.0, 3.0)]);

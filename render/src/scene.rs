@@ -77,7 +77,7 @@ const CUBE: [u8; 3] = [214, 52, 40];
 const GOAL: [u8; 3] = [40, 190, 80];
 const LINK: [u8; 3] = [236, 236, 236];
 const HAND: [u8; 3] = [70, 70, 76];
-const GOAL_RADIUS: f64 = 0.012;
+const GOAL_RADIUS: f64 = 0.015;
 
 /// Floor tiles: a checkerboard of this many tiles of this size around the robot.
 const FLOOR_TILE: f64 = 0.25;
@@ -190,12 +190,20 @@ impl Renderer {
         &self.frame
     }
 
-    fn draw_primitive(&mut self, p: &VisualPrimitive, color: [u8; 3], light: &Vector3<f64>, casts: bool) {
+    fn draw_primitive(
+        &mut self,
+        p: &VisualPrimitive,
+        color: [u8; 3],
+        light: &Vector3<f64>,
+        casts: bool,
+    ) {
         self.triangles.clear();
         tessellate(&p.shape, &mut self.triangles);
         let triangles = std::mem::take(&mut self.triangles);
         for t in &triangles {
-            let world = t.map(|v| p.pose * nalgebra::Point3::from(v)).map(|p| p.coords);
+            let world = t
+                .map(|v| p.pose * nalgebra::Point3::from(v))
+                .map(|p| p.coords);
             let normal = (world[1] - world[0]).cross(&(world[2] - world[0]));
             if casts && normal.dot(light) > 0.0 {
                 self.casters.push(world);
@@ -211,7 +219,10 @@ impl Renderer {
         let half = FLOOR_TILES / 2;
         for i in -half..half {
             for j in -half..half {
-                let (x0, y0) = (cx + f64::from(i) * FLOOR_TILE, cy + f64::from(j) * FLOOR_TILE);
+                let (x0, y0) = (
+                    cx + f64::from(i) * FLOOR_TILE,
+                    cy + f64::from(j) * FLOOR_TILE,
+                );
                 let (x1, y1) = (x0 + FLOOR_TILE, y0 + FLOOR_TILE);
                 let color = FLOOR[((i + j).rem_euclid(2)) as usize];
                 let a = Vector3::new(x0, y0, z);
@@ -351,10 +362,16 @@ mod tests {
             r#"{"camera": {"fov": 0}}"#,
         ] {
             assert!(
-                matches!(RenderConfig::from_json(json), Err(Error::InvalidConfig { .. })),
+                matches!(
+                    RenderConfig::from_json(json),
+                    Err(Error::InvalidConfig { .. })
+                ),
                 "{json}"
             );
         }
-        assert_eq!(RenderConfig::from_json("{}").unwrap(), RenderConfig::default());
+        assert_eq!(
+            RenderConfig::from_json("{}").unwrap(),
+            RenderConfig::default()
+        );
     }
 }

@@ -1436,22 +1436,36 @@ fn push_visual(
         let axis = b - a;
         let rotation = UnitQuaternion::rotation_between(&Vector3::z(), &axis)
             // Antiparallel (or a zero-length segment): a half turn about x does.
-            .unwrap_or_else(|| UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI));
+            .unwrap_or_else(|| {
+                UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+            });
         let shape = VisualShape::Capsule {
             half_height: axis.norm() / 2.0,
             radius: c.radius as f64,
         };
-        (shape, Isometry3::from_parts(Translation3::from((a + b) / 2.0), rotation))
+        (
+            shape,
+            Isometry3::from_parts(Translation3::from((a + b) / 2.0), rotation),
+        )
     } else if let Some(c) = shape.as_cylinder() {
         let shape = VisualShape::Cylinder {
             half_height: c.half_height as f64,
             radius: c.radius as f64,
         };
-        (shape, Isometry3::from_parts(Translation3::identity(), z_to_y))
+        (
+            shape,
+            Isometry3::from_parts(Translation3::identity(), z_to_y),
+        )
     } else if let Some(c) = shape.as_convex_polyhedron() {
         let (points, triangles) = c.to_trimesh();
         let vertices = points.into_iter().map(vec_to_na).collect();
-        (VisualShape::ConvexMesh { vertices, triangles }, Isometry3::identity())
+        (
+            VisualShape::ConvexMesh {
+                vertices,
+                triangles,
+            },
+            Isometry3::identity(),
+        )
     } else if shape.as_halfspace().is_some() {
         // Every halfspace built here is the floor, z up.
         (VisualShape::Plane, Isometry3::identity())
@@ -1469,4 +1483,3 @@ fn push_visual(
         tag,
     });
 }
-
