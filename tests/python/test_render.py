@@ -343,3 +343,16 @@ def test_video_size_is_checked() -> None:
         capture_output=True, text=True, timeout=60, check=False,
     )  # fmt: skip
     assert result.returncode == 2 and "video-size" in result.stderr
+
+
+def test_the_readme_pictures_script_writes_a_png(tmp_path: Path) -> None:
+    out = tmp_path / "stills.png"
+    script = Path(__file__).resolve().parents[2] / "examples" / "render_scripted.py"
+    subprocess.run(
+        [sys.executable, str(script), "--out", str(out), "--width", "96", "--height", "64"],
+        check=True, capture_output=True, timeout=120,
+    )  # fmt: skip
+    data = out.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+    assert (width, height) == (4 * 96, 64)
