@@ -175,6 +175,7 @@ impl Renderer {
                     radius: GOAL_RADIUS,
                 },
                 pose: nalgebra::Isometry3::translation(goal.x, goal.y, goal.z),
+                // Not drawn by tag: the colour is given below and the marker casts no shadow.
                 tag: VisualTag::Cube,
             };
             self.draw_primitive(&marker, GOAL, &light, false);

@@ -356,3 +356,14 @@ def test_the_readme_pictures_script_writes_a_png(tmp_path: Path) -> None:
     assert data[:8] == b"\x89PNG\r\n\x1a\n"
     width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
     assert (width, height) == (4 * 96, 64)
+
+
+def test_render_after_close_is_a_reset_needed_error() -> None:
+    env = panda_rapier.PickAndPlaceEnv(render_mode="rgb_array", width=32, height=24)
+    env.close()
+    with pytest.raises(panda_rapier.ResetNeededError, match="closed"):
+        env.render()
+    envs = panda_rapier.PickAndPlaceVectorEnv(2, render_mode="rgb_array", width=32, height=24)
+    envs.close()
+    with pytest.raises(panda_rapier.ResetNeededError, match="closed"):
+        envs.render()

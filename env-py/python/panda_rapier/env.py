@@ -155,6 +155,8 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
         if self.render_mode is None or self._frames is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode to gym.make.")
             return None
+        if isinstance(self._native, _common.Closed):
+            self._native.check()
         return self._frames.output(self._frames.renderer.render_env(self._native))
 
     def close(self) -> None:

@@ -207,6 +207,8 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
         if self.render_mode is None or self._frames is None:
             gym.logger.warn("render() called without a render_mode.")
             return None
+        if isinstance(self._native, _common.Closed):
+            self._native.check()
         renderer = self._frames.renderer
         frames = [renderer.render_vec_env(self._native, i) for i in range(self._render_envs)]
         return self._frames.output(tile(frames))
