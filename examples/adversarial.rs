@@ -126,8 +126,10 @@ fn torque_scenario(steps: u64) -> panda_rapier::Result<Tally> {
                 tally.steps += 1;
                 let (linear, angular) = sim.max_body_speeds();
                 let unstable = !sim.is_finite()
-                    || !(linear <= thresholds.unstable_linear_speed)
-                    || !(angular <= thresholds.unstable_angular_speed);
+                    || linear.is_nan()
+                    || angular.is_nan()
+                    || linear > thresholds.unstable_linear_speed
+                    || angular > thresholds.unstable_angular_speed;
                 if linear.is_finite() {
                     tally.fastest = tally.fastest.max(linear);
                 }

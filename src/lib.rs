@@ -1,11 +1,12 @@
 //! panda_rapier: Franka Panda pick-and-place on rapier3d.
 //!
 //! This facade re-exports [`panda_rapier_core`] and, as [`policies`], the scripted policies of
-//! [`panda_rapier_policies`]; the top-level `tests/`, `benches/` and `examples/` use the API
+//! [`panda_rapier_policies`], and, as [`render`], the CPU renderer of [`panda_rapier_render`]; the top-level `tests/`, `benches/` and `examples/` use the API
 //! through it exactly as users do.
 
 pub use panda_rapier_core::*;
 pub use panda_rapier_policies as policies;
+pub use panda_rapier_render as render;
 
 /// The classic tutorial's pick-and-place sequence (see [`panda_rapier_policies::tutorial`]).
 pub use panda_rapier_policies::tutorial as demo;

@@ -29,7 +29,7 @@ pub use kinematics::{pointing_down, IkOptions, IkReport, IkSolution, IkWorkspace
 pub use model::{JointInfo, JointType, LinkInfo, Mimic, RobotModel, Tcp};
 pub use physics::{
     BodyState, CubeContacts, CubeTouch, JointControl, JointState, LinkState, SimSnapshot,
-    Simulation,
+    Simulation, VisualPrimitive, VisualShape, VisualTag,
 };
 pub use task::{
     ControlMode, EnvConfig, EnvSnapshot, ObservationLayout, PickAndPlaceEnv, ResetOptions,

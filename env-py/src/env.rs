@@ -27,7 +27,7 @@ pub struct NativeSnapshot {
 /// One pick-and-place environment.
 #[pyclass(module = "panda_rapier._native", name = "NativeEnv")]
 pub struct NativeEnv {
-    env: PickAndPlaceEnv,
+    pub(crate) env: PickAndPlaceEnv,
     action: Vec<f32>,
 }
 

@@ -11,6 +11,7 @@ mod convert;
 mod env;
 mod errors;
 mod policy;
+mod render;
 mod vector;
 
 /// The default environment configuration as JSON (every field filled in).
@@ -59,5 +60,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<env::NativeSnapshot>()?;
     m.add_class::<vector::NativeVecEnv>()?;
     m.add_class::<policy::NativeScriptedPolicy>()?;
+    m.add_class::<render::NativeRenderer>()?;
     Ok(())
 }

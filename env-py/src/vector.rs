@@ -13,7 +13,7 @@ use crate::errors::{detached, invalid, to_py, Blame};
 /// N environments stepped in parallel.
 #[pyclass(module = "panda_rapier._native", name = "NativeVecEnv")]
 pub struct NativeVecEnv {
-    vec: VecEnv,
+    pub(crate) vec: VecEnv,
     actions: Vec<f32>,
 }
 

@@ -21,6 +21,7 @@ from .env import PickAndPlaceEnv
 from .errors import (
     AssetError,
     ConfigError,
+    DisplayError,
     InvalidActionError,
     InvalidArgumentError,
     PandaRapierError,
@@ -28,14 +29,17 @@ from .errors import (
 )
 from .policy import ScriptedPolicy
 from .registration import ENV_IDS, MAX_EPISODE_STEPS, env_config, register_envs
+from .rendering import RENDER_MODES
 from .robot import Robot
 from .vector import PickAndPlaceVectorEnv
 
 __all__ = [
     "ENV_IDS",
     "MAX_EPISODE_STEPS",
+    "RENDER_MODES",
     "AssetError",
     "ConfigError",
+    "DisplayError",
     "InvalidActionError",
     "InvalidArgumentError",
     "PandaRapierError",

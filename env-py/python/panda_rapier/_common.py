@@ -212,6 +212,9 @@ class NativeBacked:
 class Closed:
     """Stands in for the native object after ``close()``: any use raises."""
 
+    def check(self) -> None:
+        raise ResetNeededError(f"the {self._what} is closed")
+
     def __init__(self, what: str) -> None:
         self._what = what
 

@@ -4,12 +4,14 @@
 
     panda-rapier eval --policy scripted --episodes 1000 --num-envs 32 --seed 0
     panda-rapier eval --policy runs/tqc_her/model.zip --episodes 100 --json eval.json
+    panda-rapier eval --policy scripted --episodes 2 --video scripted.mp4
     panda-rapier bench --num-envs 1 16 64 256 --json bench.json
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 from collections.abc import Sequence
@@ -35,6 +37,18 @@ def _non_negative(text: str) -> int:
     if value < 0:
         raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
     return value
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"must be WIDTHxHEIGHT, e.g. 720x480, got {text!r}"
+        ) from None
+    if width < 1 or height < 1:
+        raise argparse.ArgumentTypeError(f"sizes must be >= 1, got {text!r}")
+    return width, height
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -90,6 +104,16 @@ def _parser() -> argparse.ArgumentParser:
         "--algo", default=None, help="algorithm of the model file (default: read from the file)"
     )
     evaluation.add_argument("--json", type=Path, default=None, help="write the report here")
+    evaluation.add_argument(
+        "--video",
+        type=Path,
+        default=None,
+        help="record the episodes environment 0 runs (episodes 0, NUM_ENVS, ...; all of them "
+        "with --num-envs 1) to this video file, e.g. out.mp4 (needs the render extra)",
+    )
+    evaluation.add_argument(
+        "--video-size", type=_size, default=(720, 480), help="WIDTHxHEIGHT (default 720x480)"
+    )
     evaluation.add_argument("--quiet", action="store_true", help="no progress bar")
     evaluation.set_defaults(run=_run_eval)
 
@@ -228,9 +252,19 @@ def _run_eval(args: argparse.Namespace) -> int:
         policy = model
         label = str(model_path)
 
-    with tqdm(
-        total=args.episodes, desc="episodes", unit="ep", disable=args.quiet, file=sys.stderr
-    ) as bar:
+    recorder = None
+    if args.video is not None:
+        from .video import VideoRecorder
+
+        width, height = args.video_size
+        fps = float(config.get("control_frequency", 25.0))
+        recorder = VideoRecorder(args.video, fps, width=width, height=height)
+    with (
+        tqdm(
+            total=args.episodes, desc="episodes", unit="ep", disable=args.quiet, file=sys.stderr
+        ) as bar,
+        recorder if recorder is not None else contextlib.nullcontext(),
+    ):
         report = evaluate(
             policy,
             config,
@@ -239,6 +273,7 @@ def _run_eval(args: argparse.Namespace) -> int:
             first_seed=args.seed,
             num_threads=args.threads,
             progress=lambda done: bar.update(done - bar.n),
+            recorder=recorder,
         )
     report.policy = label
     summary = report.summary()
@@ -269,6 +304,8 @@ def _run_eval(args: argparse.Namespace) -> int:
         f"({summary['env_steps']} steps, {summary['num_envs']} envs, "
         f"{summary['num_threads']} threads, {summary['wall_time_s']:.1f} s)"
     )
+    if recorder is not None:
+        print(f"  video               {recorder.frames} frames written to {args.video}")
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(report.to_json())

@@ -10,10 +10,9 @@ from gymnasium.utils import EzPickle
 
 from . import _common
 from ._native import NativeEnv
-from .errors import ConfigError, InvalidArgumentError
+from .errors import InvalidArgumentError
+from .rendering import DEFAULT_HEIGHT, DEFAULT_WIDTH, RENDER_MODES, FrameSource
 from .robot import Robot
-
-RENDER_MODES = ("human", "rgb_array")
 
 
 class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray], EzPickle):
@@ -78,8 +77,16 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
     nested ones as dicts: ``arm``, ``control_mode``, ``reward_type``, ``max_episode_steps``,
     ``control_frequency``, ``success_threshold``, ``terminate_on_success``, ``pick_region``,
     ``goal_region``, ``goal_air_probability``, ``randomization``, ``sim``, ... Unknown or invalid
-    values raise :class:`~panda_rapier.ConfigError`. ``render_mode`` is accepted for
-    Gymnasium compatibility; frames arrive with the renderer.
+    values raise :class:`~panda_rapier.ConfigError`.
+
+    ## Rendering
+    ``render_mode="rgb_array"``: :meth:`render` returns an HxWx3 uint8 frame drawn on the CPU
+    (no GPU or display needed), ``width`` x ``height`` pixels (default 720 x 480), from
+    ``camera``: a dict with ``target``, ``distance``, ``azimuth``, ``elevation`` (degrees, an
+    orbit like PyBullet's debug camera) or ``eye`` instead of the orbit, and ``fov`` (vertical,
+    degrees). ``render_mode="human"``: a window (pygame, the ``render`` extra) updated on every
+    ``reset`` and ``step`` at real-time pace; without a display it raises
+    :class:`~panda_rapier.DisplayError`.
 
     ## Determinism
     ``reset(seed=s)`` makes everything that follows a function of ``s`` and the actions:
@@ -91,13 +98,19 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
 
     metadata: dict[str, Any] = {"render_modes": list(RENDER_MODES), "render_fps": 25}  # noqa: RUF012
 
-    def __init__(self, render_mode: str | None = None, **config: Any) -> None:
-        EzPickle.__init__(self, render_mode=render_mode, **config)
-        if render_mode is not None and render_mode not in RENDER_MODES:
-            raise ConfigError(
-                f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}"
-            )
-        self.render_mode = render_mode
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        *,
+        width: int = DEFAULT_WIDTH,
+        height: int = DEFAULT_HEIGHT,
+        camera: dict[str, Any] | None = None,
+        **config: Any,
+    ) -> None:
+        EzPickle.__init__(
+            self, render_mode=render_mode, width=width, height=height, camera=camera, **config
+        )
+        self._frames: FrameSource | None = None
         # gym.make keeps time with a TimeLimit wrapper; the env counts only when asked to.
         config.setdefault("max_episode_steps", None)
         self._bind_native(NativeEnv(_common.config_json(config), 0))
@@ -106,6 +119,9 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
         self._action_shape = (int(self._native.action_dim),)
         self.metadata = {**type(self).metadata, "render_fps": round(1.0 / self._native.dt)}
         self.robot = Robot(self)
+        # Last, so a window is opened only for an otherwise valid environment.
+        self._frames = FrameSource(render_mode, width, height, camera, float(self._native.dt))
+        self.render_mode = render_mode
 
     @property
     def goal(self) -> np.ndarray:
@@ -124,12 +140,16 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
                 raise InvalidArgumentError(f"options must be a dict, got {type(options).__name__}")
             options_json = _common.config_json(options)
         flat, info = self._native.reset(native_seed, options_json)
+        if self.render_mode == "human":
+            self.render()
         return _common.split_observation(flat), info
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         flat, reward, terminated, truncated, info = self._native.step(
             _common.as_actions(action, self._action_shape)
         )
+        if self.render_mode == "human":
+            self.render()
         return _common.split_observation(flat), reward, terminated, truncated, info
 
     def save_state(self) -> Any:
@@ -140,14 +160,17 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
         """Returns to a state from :meth:`save_state`; stepping on continues bit-identically."""
         self._native.restore_state(state)
 
-    def render(self) -> None:
-        if self.render_mode is None:
+    def render(self) -> np.ndarray | None:  # type: ignore[override]
+        """The current state as an HxWx3 uint8 frame (``rgb_array``), or shown in the window
+        (``human``, returns None). The same state always gives the same bytes."""
+        if self.render_mode is None or self._frames is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode to gym.make.")
             return None
-        raise NotImplementedError(
-            "panda_rapier cannot draw frames yet: render_mode is accepted for compatibility and "
-            "the CPU renderer is planned"
-        )
+        if isinstance(self._native, _common.Closed):
+            self._native.check()
+        return self._frames.output(self._frames.renderer.render_env(self._native))
 
     def close(self) -> None:
+        if getattr(self, "_frames", None) is not None:
+            self._frames.close()
         self._native = _common.Closed("environment")

@@ -10,6 +10,7 @@ from __future__ import annotations
 __all__ = [
     "AssetError",
     "ConfigError",
+    "DisplayError",
     "InvalidActionError",
     "InvalidArgumentError",
     "PandaRapierError",
@@ -40,3 +41,8 @@ class AssetError(PandaRapierError, OSError):
 class ResetNeededError(PandaRapierError, RuntimeError):
     """The environment must be reset first: before the first reset, after a physics blow-up,
     after an episode ended with autoreset disabled, or after ``close()``."""
+
+
+class DisplayError(PandaRapierError, RuntimeError):
+    """``render_mode="human"`` cannot open a window: no display, or pygame is missing.
+    ``render_mode="rgb_array"`` needs neither."""

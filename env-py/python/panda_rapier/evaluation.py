@@ -14,7 +14,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -22,6 +22,9 @@ from . import _common
 from ._native import NativeVecEnv
 from .errors import ConfigError, InvalidArgumentError
 from .policy import ScriptedPolicy
+
+if TYPE_CHECKING:
+    from .video import VideoRecorder
 
 __all__ = [
     "EpisodeRecord",
@@ -244,12 +247,15 @@ def evaluate(
     first_seed: int = 0,
     num_threads: int | None = None,
     progress: Callable[[int], None] | None = None,
+    recorder: VideoRecorder | None = None,
 ) -> EvaluationReport:
     """Runs ``episodes`` seeded episodes of the environment ``config`` (its
     ``max_episode_steps`` must be set) with ``policy`` (a :class:`ScriptedPolicy` or anything
     with an SB3-style ``predict`` taking dict observations) on ``num_envs`` environments;
     ``progress`` is called with the number of finished episodes after every step that ends
-    some."""
+    some. ``recorder`` (a :class:`~panda_rapier.video.VideoRecorder`) gets every frame of the
+    episodes environment 0 runs (episodes ``0, num_envs, 2 num_envs, ...``): the first state
+    and one frame per step."""
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
         raise InvalidArgumentError(f"episodes must be an int >= 1, got {episodes!r}")
     if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
@@ -266,6 +272,8 @@ def evaluate(
 
     started = time.perf_counter()
     observations = envs.reset([seed + i for i in range(num_envs)])
+    if recorder is not None:
+        recorder.capture(envs)
     running: list[int | None] = list(range(num_envs))
     next_episode = num_envs
     returns = np.zeros(num_envs)
@@ -278,6 +286,8 @@ def evaluate(
         actions = np.ascontiguousarray(act(observations), dtype=np.float32)
         observations, rewards, terminated, truncated = envs.step(actions)
         env_steps += num_envs
+        if recorder is not None and running[0] is not None:
+            recorder.capture(envs)
         info = envs.infos("step")
         returns += rewards
         lengths += 1
@@ -309,6 +319,8 @@ def evaluate(
             seeds[i] = seed + running[i] if running[i] is not None else None
             returns[i], lengths[i], placed[i], first_success[i] = 0.0, 0, False, None
         observations = envs.reset(seeds, ended)
+        if recorder is not None and ended[0] and running[0] is not None:
+            recorder.capture(envs)
         if progress is not None:
             progress(len(records))
     return EvaluationReport(

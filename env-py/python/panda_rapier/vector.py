@@ -12,8 +12,8 @@ from gymnasium.vector.utils import batch_space
 
 from . import _common
 from ._native import NativeVecEnv
-from .env import RENDER_MODES
 from .errors import ConfigError, InvalidArgumentError
+from .rendering import DEFAULT_HEIGHT, DEFAULT_WIDTH, RENDER_MODES, FrameSource, tile
 
 _NATIVE_MODES = {
     AutoresetMode.NEXT_STEP: "next_step",
@@ -47,6 +47,11 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
     returns the new episode's first observation; the last one is in ``info["final_obs"]``, its
     info in ``info["final_info"]``) or ``disabled`` (reset ended environments with
     ``reset(options={"reset_mask": mask})``). Infos are dicts of arrays with ``_key`` masks.
+
+    ``render()`` draws environment 0, or with ``render_envs=k`` the first ``k`` environments
+    tiled in a near-square grid; ``render_mode``, ``width``, ``height`` and ``camera`` as for
+    :class:`~panda_rapier.PickAndPlaceEnv` (in ``human`` mode the window is updated by
+    ``render()`` calls only).
     """
 
     def __init__(
@@ -56,8 +61,13 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
         num_threads: int | None = None,
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
         render_mode: str | None = None,
+        width: int = DEFAULT_WIDTH,
+        height: int = DEFAULT_HEIGHT,
+        camera: dict[str, Any] | None = None,
+        render_envs: int = 1,
         **config: Any,
     ) -> None:
+        self._frames: FrameSource | None = None
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
             raise ConfigError(f"num_envs must be an int >= 1, got {num_envs!r}")
         if num_threads is not None and (
@@ -66,6 +76,12 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
             or num_threads < 1
         ):
             raise ConfigError(f"num_threads must be an int >= 1 or None, got {num_threads!r}")
+        if (
+            isinstance(render_envs, bool)
+            or not isinstance(render_envs, int | np.integer)
+            or not 1 <= render_envs <= num_envs
+        ):
+            raise ConfigError(f"render_envs must be an int in [1, num_envs], got {render_envs!r}")
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ConfigError(
                 f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}"
@@ -93,6 +109,8 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
         self._actions_shape = (self.num_envs, int(self._native.action_dim))
         self._masks_all = np.ones(self.num_envs, dtype=np.bool_)
         self._masks_all.flags.writeable = False
+        self._render_envs = int(render_envs)
+        self._frames = FrameSource(render_mode, width, height, camera, float(self._native.dt))
 
     @property
     def num_threads(self) -> int:
@@ -183,14 +201,19 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
             infos.setdefault(f"_{key}", self._masks_all)
         return infos
 
-    def render(self) -> None:
-        if self.render_mode is None:
+    def render(self) -> np.ndarray | None:  # type: ignore[override]
+        """Environment 0 (or the first ``render_envs`` tiled) as an HxWx3 uint8 frame, or shown
+        in the window in ``human`` mode (returns None)."""
+        if self.render_mode is None or self._frames is None:
             gym.logger.warn("render() called without a render_mode.")
             return None
-        raise NotImplementedError(
-            "panda_rapier cannot draw frames yet: render_mode is accepted for compatibility and "
-            "the CPU renderer is planned"
-        )
+        if isinstance(self._native, _common.Closed):
+            self._native.check()
+        renderer = self._frames.renderer
+        frames = [renderer.render_vec_env(self._native, i) for i in range(self._render_envs)]
+        return self._frames.output(tile(frames))
 
     def close_extras(self, **kwargs: Any) -> None:
+        if getattr(self, "_frames", None) is not None:
+            self._frames.close()
         self._native = _common.Closed("vector environment")

@@ -1,0 +1,183 @@
+//! Triangles for each [`VisualShape`], in the shape's frame, wound counter-clockwise seen from
+//! outside (so back faces can be culled).
+
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+use nalgebra::Vector3;
+use panda_rapier_core::VisualShape;
+
+/// A triangle (m).
+pub type Triangle = [Vector3<f64>; 3];
+
+/// Segments around the circumference of round shapes.
+const SLICES: usize = 16;
+/// Latitude bands of a sphere (a capsule's two caps share as many).
+const STACKS: usize = 8;
+
+/// Appends the triangles of `shape` to `out`. Planes are not tessellated (they are unbounded);
+/// the scene draws its own floor.
+pub fn tessellate(shape: &VisualShape, out: &mut Vec<Triangle>) {
+    let start = out.len();
+    match shape {
+        VisualShape::Box { half_extents: h } => {
+            let corner = |i: usize| {
+                Vector3::new(
+                    if i & 1 == 0 { -h.x } else { h.x },
+                    if i & 2 == 0 { -h.y } else { h.y },
+                    if i & 4 == 0 { -h.z } else { h.z },
+                )
+            };
+            for quad in [
+                [0, 1, 3, 2],
+                [4, 5, 7, 6],
+                [0, 1, 5, 4],
+                [2, 3, 7, 6],
+                [0, 2, 6, 4],
+                [1, 3, 7, 5],
+            ] {
+                let [a, b, c, d] = quad.map(corner);
+                out.push([a, b, c]);
+                out.push([a, c, d]);
+            }
+        }
+        VisualShape::Sphere { radius } => round(*radius, 0.0, out),
+        VisualShape::Capsule {
+            half_height,
+            radius,
+        } => round(*radius, *half_height, out),
+        VisualShape::Cylinder {
+            half_height,
+            radius,
+        } => {
+            let ring = |k: usize, z: f64| {
+                let a = TAU * k as f64 / SLICES as f64;
+                Vector3::new(radius * a.cos(), radius * a.sin(), z)
+            };
+            let (top, bottom) = (Vector3::z() * *half_height, -Vector3::z() * *half_height);
+            for k in 0..SLICES {
+                let (t0, t1) = (ring(k, *half_height), ring(k + 1, *half_height));
+                let (b0, b1) = (ring(k, -*half_height), ring(k + 1, -*half_height));
+                out.extend([[b0, b1, t1], [b0, t1, t0], [top, t0, t1], [bottom, b1, b0]]);
+            }
+        }
+        VisualShape::ConvexMesh {
+            vertices,
+            triangles,
+        } => {
+            for t in triangles {
+                if let (Some(a), Some(b), Some(c)) = (
+                    vertices.get(t[0] as usize),
+                    vertices.get(t[1] as usize),
+                    vertices.get(t[2] as usize),
+                ) {
+                    out.push([*a, *b, *c]);
+                }
+            }
+        }
+        VisualShape::Plane => {}
+    }
+    // Every shape here is convex around its centre: a face points outwards when its normal
+    // points away from the centre. This fixes the winding whatever the source gave.
+    let centre = match shape {
+        VisualShape::ConvexMesh { vertices, .. } if !vertices.is_empty() => {
+            vertices.iter().sum::<Vector3<f64>>() / vertices.len() as f64
+        }
+        _ => Vector3::zeros(),
+    };
+    for t in &mut out[start..] {
+        let normal = (t[1] - t[0]).cross(&(t[2] - t[0]));
+        if normal.dot(&((t[0] + t[1] + t[2]) / 3.0 - centre)) < 0.0 {
+            t.swap(1, 2);
+        }
+    }
+}
+
+/// A sphere of `radius`, split at the equator and its halves moved `half_height` up and down
+/// along z: a capsule, or a sphere when `half_height` is 0.
+fn round(radius: f64, half_height: f64, out: &mut Vec<Triangle>) {
+    let point = |stack: usize, slice: usize| {
+        // Latitude from -pi/2 (bottom) to pi/2; the equator is duplicated, once per cap.
+        let (lat, shift) = if stack <= STACKS / 2 {
+            (-FRAC_PI_2 + PI * stack as f64 / STACKS as f64, -half_height)
+        } else {
+            (
+                -FRAC_PI_2 + PI * (stack - 1) as f64 / STACKS as f64,
+                half_height,
+            )
+        };
+        let lon = TAU * slice as f64 / SLICES as f64;
+        Vector3::new(
+            radius * lat.cos() * lon.cos(),
+            radius * lat.cos() * lon.sin(),
+            radius * lat.sin() + shift,
+        )
+    };
+    for stack in 0..=STACKS {
+        for slice in 0..SLICES {
+            let (a, b) = (point(stack, slice), point(stack, slice + 1));
+            let (c, d) = (point(stack + 1, slice + 1), point(stack + 1, slice));
+            // Bands touching a pole collapse to one triangle.
+            if stack > 0 {
+                out.push([a, b, c]);
+            }
+            if stack < STACKS {
+                out.push([a, c, d]);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check_closed_outward(shape: &VisualShape, inside: f64, outside: f64) {
+        let mut tris = Vec::new();
+        tessellate(shape, &mut tris);
+        assert!(!tris.is_empty());
+        let mut signed_volume = 0.0;
+        for t in &tris {
+            for p in t {
+                let r = p.norm();
+                assert!(r <= outside + 1e-9 && r.is_finite(), "vertex {p:?} outside");
+            }
+            signed_volume += t[0].dot(&t[1].cross(&t[2])) / 6.0;
+        }
+        // Outward winding gives a positive volume, about that of the shape.
+        assert!(signed_volume > inside, "volume {signed_volume}");
+    }
+
+    #[test]
+    fn shapes_are_closed_and_wound_outwards() {
+        let h = Vector3::new(0.1, 0.2, 0.3);
+        let mut tris = Vec::new();
+        tessellate(&VisualShape::Box { half_extents: h }, &mut tris);
+        let volume: f64 = tris
+            .iter()
+            .map(|t| t[0].dot(&t[1].cross(&t[2])) / 6.0)
+            .sum();
+        assert!((volume - 8.0 * 0.1 * 0.2 * 0.3).abs() < 1e-12);
+        let sphere_volume = 4.0 / 3.0 * PI;
+        check_closed_outward(
+            &VisualShape::Sphere { radius: 1.0 },
+            0.8 * sphere_volume,
+            1.0,
+        );
+        check_closed_outward(
+            &VisualShape::Capsule {
+                half_height: 1.0,
+                radius: 1.0,
+            },
+            0.8 * (sphere_volume + 2.0 * PI),
+            2.0,
+        );
+        check_closed_outward(
+            &VisualShape::Cylinder {
+                half_height: 1.0,
+                radius: 1.0,
+            },
+            0.9 * 2.0 * PI,
+            2f64.sqrt(),
+        );
+    }
+}

@@ -1,0 +1,295 @@
+//! A z-buffer triangle rasteriser: flat-coloured triangles into an RGB frame, with a shadow
+//! mask filled by triangles that lie on already drawn surfaces.
+
+/// A vertex in pixel coordinates (x right, y down; pixel centres at +0.5) with the inverse of
+/// its depth along the viewing direction, which is linear in screen space.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScreenVertex {
+    /// Horizontal pixel coordinate.
+    pub x: f32,
+    /// Vertical pixel coordinate (down).
+    pub y: f32,
+    /// 1 / depth (1/m); larger is closer.
+    pub inv_depth: f32,
+}
+
+/// An RGB picture with its depth buffer and shadow mask.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    width: u32,
+    height: u32,
+    rgb: Vec<u8>,
+    inv_depth: Vec<f32>,
+    shadow: Vec<bool>,
+}
+
+/// Relative depth difference under which a shadow triangle counts as lying on the surface
+/// drawn at that pixel.
+const SHADOW_DEPTH_TOLERANCE: f32 = 2e-3;
+
+impl Frame {
+    /// A black frame, everything infinitely far.
+    pub fn new(width: u32, height: u32) -> Self {
+        let n = width as usize * height as usize;
+        Self {
+            width,
+            height,
+            rgb: vec![0; n * 3],
+            inv_depth: vec![0.0; n],
+            shadow: vec![false; n],
+        }
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Row-major RGB bytes, `height * width * 3`.
+    pub fn rgb(&self) -> &[u8] {
+        &self.rgb
+    }
+
+    /// The colour of pixel (`x`, `y`).
+    pub fn pixel(&self, x: u32, y: u32) -> [u8; 3] {
+        let i = (y as usize * self.width as usize + x as usize) * 3;
+        [self.rgb[i], self.rgb[i + 1], self.rgb[i + 2]]
+    }
+
+    /// Depth at pixel (`x`, `y`) (m); infinite where nothing was drawn.
+    pub fn depth(&self, x: u32, y: u32) -> f32 {
+        1.0 / self.inv_depth[y as usize * self.width as usize + x as usize]
+    }
+
+    /// Fills the picture with `background` (one colour per row), clears depth and shadows.
+    pub fn clear(&mut self, background: &[[u8; 3]]) {
+        let w = self.width as usize;
+        for (row, color) in self.rgb.chunks_exact_mut(w * 3).zip(background) {
+            for px in row.chunks_exact_mut(3) {
+                px.copy_from_slice(color);
+            }
+        }
+        self.inv_depth.fill(0.0);
+        self.shadow.fill(false);
+    }
+
+    /// Draws a triangle in `color` where it is closer than what is there.
+    pub fn fill_triangle(&mut self, v: &[ScreenVertex; 3], color: [u8; 3]) {
+        let width = self.width as usize;
+        let (rgb, depth) = (&mut self.rgb, &mut self.inv_depth);
+        rasterize(self.width, self.height, v, |x, y, z| {
+            let i = y * width + x;
+            if z > depth[i] {
+                depth[i] = z;
+                rgb[i * 3..i * 3 + 3].copy_from_slice(&color);
+            }
+        });
+    }
+
+    /// Marks as shadowed the pixels where this triangle lies on the drawn surface (within a
+    /// small depth tolerance): a shadow projected onto a plane shows only where that plane is
+    /// visible.
+    pub fn mark_shadow(&mut self, v: &[ScreenVertex; 3]) {
+        let width = self.width as usize;
+        let (shadow, depth) = (&mut self.shadow, &self.inv_depth);
+        rasterize(self.width, self.height, v, |x, y, z| {
+            let i = y * width + x;
+            if (z - depth[i]).abs() <= SHADOW_DEPTH_TOLERANCE * depth[i] {
+                shadow[i] = true;
+            }
+        });
+    }
+
+    /// Darkens shadowed pixels to `factor` of their colour (0 to 256 = 1.0).
+    pub fn apply_shadows(&mut self, factor: u16) {
+        for (px, &s) in self.rgb.chunks_exact_mut(3).zip(&self.shadow) {
+            if s {
+                for c in px {
+                    *c = ((u16::from(*c) * factor) >> 8) as u8;
+                }
+            }
+        }
+    }
+}
+
+/// Calls `f(x, y, inv_depth)` for every pixel whose centre lies inside the triangle (either
+/// winding), clipped to the `width` x `height` picture.
+fn rasterize(width: u32, height: u32, v: &[ScreenVertex; 3], mut f: impl FnMut(usize, usize, f32)) {
+    if width == 0 || height == 0 {
+        return;
+    }
+    let [a, b, c] = v;
+    let edge = |p: &ScreenVertex, q: &ScreenVertex, x: f32, y: f32| {
+        (q.x - p.x) * (y - p.y) - (q.y - p.y) * (x - p.x)
+    };
+    let area = edge(a, b, c.x, c.y);
+    // Degenerate, or NaN (which fails every comparison).
+    if area.is_nan() || area.abs() <= 1e-12 {
+        return;
+    }
+    // Bounding box of the pixel centres the triangle can cover, clipped to the picture.
+    let min_x = a.x.min(b.x).min(c.x) - 0.5;
+    let max_x = a.x.max(b.x).max(c.x) - 0.5;
+    let min_y = a.y.min(b.y).min(c.y) - 0.5;
+    let max_y = a.y.max(b.y).max(c.y) - 0.5;
+    if max_x < 0.0 || max_y < 0.0 || min_x > (width - 1) as f32 || min_y > (height - 1) as f32 {
+        return;
+    }
+    let x0 = min_x.ceil().max(0.0) as usize;
+    let x1 = (max_x.floor() as usize).min(width as usize - 1);
+    let y0 = min_y.ceil().max(0.0) as usize;
+    let y1 = (max_y.floor() as usize).min(height as usize - 1);
+    let inv_area = 1.0 / area;
+    // Barycentric weights of a, b, c are the edges opposite them over the area; both step
+    // linearly along a row.
+    let (da, db, dc) = (
+        -(c.y - b.y) * inv_area,
+        -(a.y - c.y) * inv_area,
+        -(b.y - a.y) * inv_area,
+    );
+    for y in y0..=y1 {
+        let py = y as f32 + 0.5;
+        let px = x0 as f32 + 0.5;
+        let mut wa = edge(b, c, px, py) * inv_area;
+        let mut wb = edge(c, a, px, py) * inv_area;
+        let mut wc = edge(a, b, px, py) * inv_area;
+        for x in x0..=x1 {
+            if wa >= 0.0 && wb >= 0.0 && wc >= 0.0 {
+                f(x, y, wa * a.inv_depth + wb * b.inv_depth + wc * c.inv_depth);
+            }
+            wa += da;
+            wb += db;
+            wc += dc;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn v(x: f32, y: f32, depth: f32) -> ScreenVertex {
+        ScreenVertex {
+            x,
+            y,
+            inv_depth: 1.0 / depth,
+        }
+    }
+
+    fn covered(frame: &Frame, color: [u8; 3]) -> Vec<(u32, u32)> {
+        let mut out = Vec::new();
+        for y in 0..frame.height() {
+            for x in 0..frame.width() {
+                if frame.pixel(x, y) == color {
+                    out.push((x, y));
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn a_right_triangle_covers_the_pixels_below_its_diagonal() {
+        let mut frame = Frame::new(8, 8);
+        frame.clear(&[[0, 0, 0]; 8]);
+        // Corners at pixel edges: pixel (x, y) is inside when its centre is, x + y <= 7.
+        frame.fill_triangle(
+            &[v(0.0, 0.0, 1.0), v(8.0, 0.0, 1.0), v(0.0, 8.0, 1.0)],
+            [255, 0, 0],
+        );
+        let got = covered(&frame, [255, 0, 0]);
+        let expected: Vec<(u32, u32)> = (0..8u32)
+            .flat_map(|y| (0..8u32).map(move |x| (x, y)))
+            .filter(|&(x, y)| x + y < 8)
+            .collect();
+        assert_eq!(got, expected);
+        // Winding does not matter.
+        let mut other = Frame::new(8, 8);
+        other.clear(&[[0, 0, 0]; 8]);
+        other.fill_triangle(
+            &[v(0.0, 0.0, 1.0), v(0.0, 8.0, 1.0), v(8.0, 0.0, 1.0)],
+            [255, 0, 0],
+        );
+        assert_eq!(other, frame);
+    }
+
+    #[test]
+    fn the_closer_triangle_wins_whatever_the_order() {
+        let near = [v(0.0, 0.0, 1.0), v(10.0, 0.0, 1.0), v(0.0, 10.0, 1.0)];
+        let far = [v(0.0, 0.0, 2.0), v(10.0, 0.0, 2.0), v(0.0, 10.0, 2.0)];
+        for order in [[near, far], [far, near]] {
+            let mut frame = Frame::new(10, 10);
+            frame.clear(&[[0, 0, 0]; 10]);
+            frame.fill_triangle(
+                &order[0],
+                if order[0] == near {
+                    [1, 1, 1]
+                } else {
+                    [2, 2, 2]
+                },
+            );
+            frame.fill_triangle(
+                &order[1],
+                if order[1] == near {
+                    [1, 1, 1]
+                } else {
+                    [2, 2, 2]
+                },
+            );
+            assert_eq!(frame.pixel(1, 1), [1, 1, 1]);
+            assert!((frame.depth(1, 1) - 1.0).abs() < 1e-6);
+            assert!(frame.depth(9, 9).is_infinite());
+        }
+    }
+
+    #[test]
+    fn off_screen_and_degenerate_triangles_draw_nothing() {
+        let mut frame = Frame::new(4, 4);
+        frame.clear(&[[0, 0, 0]; 4]);
+        let before = frame.clone();
+        frame.fill_triangle(
+            &[
+                v(-10.0, -10.0, 1.0),
+                v(-5.0, -10.0, 1.0),
+                v(-10.0, -5.0, 1.0),
+            ],
+            [9, 9, 9],
+        );
+        frame.fill_triangle(
+            &[v(0.0, 0.0, 1.0), v(4.0, 4.0, 1.0), v(2.0, 2.0, 1.0)],
+            [9, 9, 9],
+        );
+        frame.fill_triangle(
+            &[v(f32::NAN, 0.0, 1.0), v(4.0, 0.0, 1.0), v(0.0, 4.0, 1.0)],
+            [9, 9, 9],
+        );
+        assert_eq!(frame, before);
+        // Huge triangles are clipped to the picture.
+        frame.fill_triangle(
+            &[v(-1e6, -1e6, 1.0), v(1e6, -1e6, 1.0), v(0.0, 1e6, 1.0)],
+            [9, 9, 9],
+        );
+        assert_eq!(covered(&frame, [9, 9, 9]).len(), 16);
+    }
+
+    #[test]
+    fn shadows_mark_only_the_surface_they_lie_on() {
+        let mut frame = Frame::new(10, 10);
+        frame.clear(&[[200, 200, 200]; 10]);
+        frame.fill_triangle(
+            &[v(0.0, 0.0, 2.0), v(10.0, 0.0, 2.0), v(0.0, 10.0, 2.0)],
+            [200, 200, 200],
+        );
+        // A shadow at the same depth darkens; one behind the surface does not.
+        frame.mark_shadow(&[v(0.0, 0.0, 2.0), v(4.0, 0.0, 2.0), v(0.0, 4.0, 2.0)]);
+        frame.mark_shadow(&[v(5.0, 0.0, 3.0), v(9.0, 0.0, 3.0), v(5.0, 4.0, 3.0)]);
+        frame.apply_shadows(128);
+        assert_eq!(frame.pixel(0, 0), [100, 100, 100]);
+        assert_eq!(frame.pixel(6, 0), [200, 200, 200]);
+    }
+}
