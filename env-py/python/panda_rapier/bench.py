@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import importlib.util
 import json
 import os
 import platform
@@ -22,6 +23,7 @@ import sys
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 import gymnasium as gym
@@ -59,6 +61,14 @@ class BenchCase:
     peer: bool = False
     #: Episode counts of the scripted runs (vector env): ended, placed.
     episodes: dict[str, int] = field(default_factory=lambda: {"ended": 0, "placed": 0})
+    #: Releases the environments (each case lives for one measurement only, so a whole
+    #: benchmark never holds more than one batch of environments: MuJoCo peers at N = 256
+    #: take gigabytes).
+    close: Callable[[], None] = field(default=lambda: None, repr=False)
+
+    @property
+    def key(self) -> tuple[str, str, int]:
+        return (self.target, self.policy, self.num_envs)
 
     @property
     def median(self) -> float:
@@ -74,6 +84,10 @@ class BenchCase:
             "sim_s_per_s": self.median * self.dt,
             "runs": self.rates,
         }
+
+
+def _closed(_: int) -> float:
+    raise RuntimeError("this benchmark case was closed")
 
 
 def _timed(step: Callable[[int], None], steps: int) -> float:
@@ -100,7 +114,7 @@ def _single_env_case(env_id: str, policy: str, steps: int, config: dict[str, Any
         state["obs"] = obs
 
     dt = float(env.unwrapped.dt)
-    return BenchCase("gym.make", policy, 1, dt, lambda n: _timed(step, n))
+    return BenchCase("gym.make", policy, 1, dt, lambda n: _timed(step, n), close=env.close)
 
 
 def _vector_case(
@@ -132,6 +146,7 @@ def _vector_case(
         float(envs.dt),
         lambda n: _timed(step, n) * num_envs,
         episodes=episodes,
+        close=envs.close,
     )
 
 
@@ -151,7 +166,9 @@ def _sb3_case(
         action = scripted.predict(state["obs"])[0] if scripted else actions[k % len(actions)]
         state["obs"], _, _, _ = venv.step(action)
 
-    return BenchCase("sb3", policy, num_envs, venv.dt, lambda n: _timed(step, n) * num_envs)
+    return BenchCase(
+        "sb3", policy, num_envs, venv.dt, lambda n: _timed(step, n) * num_envs, close=venv.close
+    )
 
 
 @contextlib.contextmanager
@@ -186,7 +203,9 @@ def _peer_case(label: str, how: str, num_envs: int) -> BenchCase | None:
                     env.reset()
 
             env.action_space.seed(0)
-            return BenchCase(label, "random", 1, dt, lambda n: _timed(step, n), peer=True)
+            return BenchCase(
+                label, "random", 1, dt, lambda n: _timed(step, n), peer=True, close=env.close
+            )
         envpool = importlib.import_module("envpool")
         venv = envpool.make_gymnasium(env_id, num_envs=num_envs, seed=0)
         venv.reset()
@@ -201,7 +220,13 @@ def _peer_case(label: str, how: str, num_envs: int) -> BenchCase | None:
             venv.step(actions[k % len(actions)])
 
         return BenchCase(
-            label, "random", num_envs, dt, lambda n: _timed(batch_step, n) * num_envs, peer=True
+            label,
+            "random",
+            num_envs,
+            dt,
+            lambda n: _timed(batch_step, n) * num_envs,
+            peer=True,
+            close=getattr(venv, "close", lambda: None),
         )
     except Exception:  # a peer that fails to start is reported as missing
         return None
@@ -249,36 +274,51 @@ def run_benchmark(
     """Runs every case ``rounds`` times (each run: about ``env_steps`` environment steps) and
     returns the report (see the module documentation)."""
     targets, policies = list(targets), list(policies)
-    cases: list[BenchCase] = []
+    builders: list[Callable[[], BenchCase | None]] = []
     for policy in policies:
         if "gym.make" in targets:
-            cases.append(_single_env_case(env_id, policy, env_steps, config))
+            builders.append(partial(_single_env_case, env_id, policy, env_steps, config))
         for n in num_envs:
             if "vector" in targets:
-                cases.append(_vector_case(env_id, policy, n, threads, config))
-            if "sb3" in targets:
-                try:
-                    cases.append(_sb3_case(env_id, policy, n, threads, config))
-                except ImportError:
-                    pass
+                builders.append(partial(_vector_case, env_id, policy, n, threads, config))
+            if "sb3" in targets and importlib.util.find_spec("stable_baselines3") is not None:
+                builders.append(partial(_sb3_case, env_id, policy, n, threads, config))
     missing = []
     if peers:
-        for label, how in available_peers():
+        found = available_peers()
+        for label, how in found:
             sizes = [1] if how.startswith("gym:") else list(num_envs)
-            made = [case for n in sizes if (case := _peer_case(label, how, n)) is not None]
-            cases.extend(made)
-            if not made:
-                missing.append(label)
-        found = {label for label, _ in available_peers()}
-        missing += [label for label, _, _ in PEER_IDS if label not in found]
-    total = rounds * len(cases)
+            builders += [partial(_peer_case, label, how, n) for n in sizes]
+        missing += [label for label, _, _ in PEER_IDS if label not in {f for f, _ in found}]
+    # Every round builds each case, measures it and closes it again, in the same order, so
+    # drift spreads over all cases and only one batch of environments exists at a time.
+    records: dict[tuple[str, str, int], BenchCase] = {}
+    failed: dict[int, str] = {}
+    total = rounds * len(builders)
     for round_index in range(rounds):
-        for i, case in enumerate(cases):
+        for i, build in enumerate(builders):
+            if i in failed:
+                continue
+            case = build()
+            if case is None:
+                failed[i] = "peer"
+                continue
             steps = max(1, env_steps // case.num_envs)
-            case.rates.append(case.runner(steps))
+            record = records.setdefault(case.key, case)
+            record.rates.append(case.runner(steps))
+            if record is not case:
+                for k, v in case.episodes.items():
+                    record.episodes[k] += v
+            case.close()
+            case.runner = _closed
             if progress is not None:
-                progress(round_index * len(cases) + i + 1, total,
+                progress(round_index * len(builders) + i + 1, total,
                          f"{case.target} {case.policy} N={case.num_envs}")  # fmt: skip
+    cases = list(records.values())
+    made_peers = {c.target for c in cases if c.peer}
+    missing += [
+        label for label, _ in (available_peers() if peers else []) if label not in made_peers
+    ]
     fidelity = dict(tutorial_fidelity(_common.config_json(env_config(env_id, **config))))
     ended = sum(case.episodes["ended"] for case in cases)
     placed = sum(case.episodes["placed"] for case in cases)
