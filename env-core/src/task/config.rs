@@ -142,6 +142,7 @@ impl Default for TaskThresholds {
 /// ```
 /// let defaults = r#"
 /// {
+///   "arm": "dynamic",
 ///   "control_mode": "ee",
 ///   "reward_type": "sparse",
 ///   "max_episode_steps": 70,
@@ -178,6 +179,7 @@ impl Default for TaskThresholds {
 ///     "unstable_angular_speed": 200.0
 ///   },
 ///   "sim": {
+///     "arm": "dynamic",
 ///     "gravity": [0.0, 0.0, -9.81],
 ///     "robot_urdf": null,
 ///     "robot_base": [0.0, 0.0, 0.0],
@@ -201,7 +203,8 @@ impl Default for TaskThresholds {
 ///       "gripper_stiffness": 5000.0,
 ///       "gripper_damping": 50.0,
 ///       "arm_armature": 0.0,
-///       "finger_armature": 0.05
+///       "finger_armature": 0.05,
+///       "kinematic_acceleration": 50.0
 ///     },
 ///     "platform": {
 ///       "top_center": [0.5, 0.3, 0.1],
