@@ -511,25 +511,13 @@ impl Simulation {
 
         let urdf_robot = UrdfRobot::from_robot(model.urdf(), options, std::path::Path::new("/"));
         let link_sources: Vec<usize> = urdf_robot.links.iter().map(|l| l.urdf_link_index).collect();
-        let joint_sources: Vec<usize> = urdf_robot
-            .joints
-            .iter()
-            .map(|j| j.source_urdf_joint_index())
-            .collect();
         let (link_handles, link_sources, joint_slots, multibody, kinematic) = match config.arm {
             ArmModel::Dynamic => {
-                let handles = urdf_robot.insert_using_multibody_joints(
-                    &mut world.bodies,
-                    &mut world.colliders,
-                    &mut world.multibody_joints,
-                    UrdfMultibodyOptions::DISABLE_SELF_CONTACTS,
-                );
-                let (joint_slots, multibody) = build_multibody(
-                    &mut world.multibody_joints,
+                let (handles, joint_slots, multibody) = insert_multibody(
+                    &mut world,
+                    urdf_robot,
                     &model,
                     &config,
-                    &handles.joints,
-                    &joint_sources,
                     &finger_joints,
                     |_| true,
                 )?;
@@ -1456,30 +1444,14 @@ fn build_kinematic_arm(
         }
     }
     let gripper_sources: Vec<usize> = gripper.links.iter().map(|l| l.urdf_link_index).collect();
-    let joint_sources: Vec<usize> = gripper
-        .joints
-        .iter()
-        .map(|j| j.source_urdf_joint_index())
-        .collect();
     let root_position = gripper_sources
         .iter()
         .position(|&l| l == gripper_root)
         .ok_or_else(|| malformed("the gripper's parent link has no body"))?;
-    let handles = gripper.insert_using_multibody_joints(
-        &mut world.bodies,
-        &mut world.colliders,
-        &mut world.multibody_joints,
-        UrdfMultibodyOptions::DISABLE_SELF_CONTACTS,
-    );
-    let (joint_slots, multibody) = build_multibody(
-        &mut world.multibody_joints,
-        model,
-        config,
-        &handles.joints,
-        &joint_sources,
-        finger_joints,
-        |j| finger_joints.contains(&j),
-    )?;
+    let (handles, joint_slots, multibody) =
+        insert_multibody(world, gripper, model, config, finger_joints, |j| {
+            finger_joints.contains(&j)
+        })?;
 
     // Weld the gripper's root to the nearest placed ancestor, through fixed joints only.
     let mut offset = Isometry3::identity();
@@ -1525,6 +1497,43 @@ fn build_kinematic_arm(
             link_poses: vec![Isometry3::identity(); model.links().len()],
         },
     })
+}
+
+/// What the URDF loader returns for a robot inserted as a multibody.
+type MultibodyHandles =
+    rapier3d_urdf::UrdfRobotHandles<Option<rapier3d::dynamics::MultibodyJointHandle>>;
+
+/// Inserts `robot` into `world` as a multibody (no self contacts) and finds its joints there
+/// (see [`build_multibody`]; `required` says which movable joints must be in it).
+fn insert_multibody(
+    world: &mut PhysicsWorld,
+    robot: UrdfRobot,
+    model: &RobotModel,
+    config: &SimConfig,
+    finger_joints: &[usize],
+    required: impl Fn(usize) -> bool,
+) -> Result<(MultibodyHandles, Vec<Option<DofSlot>>, MultibodyIndex)> {
+    let joint_sources: Vec<usize> = robot
+        .joints
+        .iter()
+        .map(|j| j.source_urdf_joint_index())
+        .collect();
+    let handles = robot.insert_using_multibody_joints(
+        &mut world.bodies,
+        &mut world.colliders,
+        &mut world.multibody_joints,
+        UrdfMultibodyOptions::DISABLE_SELF_CONTACTS,
+    );
+    let (joint_slots, multibody) = build_multibody(
+        &mut world.multibody_joints,
+        model,
+        config,
+        &handles.joints,
+        &joint_sources,
+        finger_joints,
+        required,
+    )?;
+    Ok((handles, joint_slots, multibody))
 }
 
 /// Where each joint of `model` landed in the multibody the URDF loader built, after giving the
