@@ -5,10 +5,12 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import weakref
 from pathlib import Path
 
 import pytest
 
+from panda_rapier import bench
 from panda_rapier.cli import main
 
 
@@ -117,3 +119,26 @@ def test_bench_reports_speed_next_to_accuracy(
     fidelity = report["fidelity"]
     assert fidelity["on_platform"] and fidelity["carry_slip_mm"] < 5.0
     assert not fidelity["non_finite_seen"]
+
+
+def test_bench_frees_each_case_before_building_the_next(monkeypatch: pytest.MonkeyPatch) -> None:
+    # A full run with envpool's MuJoCo peers was OOM-killed at 24 GB while measured cases still
+    # held their batches; each case must be gone before the next one is built.
+    batches: list[weakref.ref[object]] = []
+
+    class Batch:
+        def close(self) -> None:
+            pass
+
+    def build(env_id: str, policy: str, steps: int, config: dict[str, object]) -> bench.BenchCase:
+        assert all(ref() is None for ref in batches), "a measured case still holds its batch"
+        batch = Batch()
+        batches.append(weakref.ref(batch))
+        return bench.BenchCase("gym.make", policy, 1, 0.04, runner=lambda n: (batch, 1e3)[1],
+                               close=batch.close)  # fmt: skip
+
+    monkeypatch.setattr(bench, "_single_env_case", build)
+    report = bench.run_benchmark(num_envs=(), targets=("gym.make",), rounds=3, peers=False,
+                                 env_steps=8)  # fmt: skip
+    assert len(batches) == 6 and all(ref() is None for ref in batches)
+    assert [row["runs"] for row in report["results"]] == [[1e3] * 3] * 2
