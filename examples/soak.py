@@ -7,7 +7,8 @@ Steps random actions (and autoresets) without pause; every ``--every`` environme
 records the process's resident memory and the steps per second since the last sample. At the
 end it prints the table and the memory growth after warm-up (the first sample): a leak shows as
 steady growth, a healthy run as a flat line. Writes ``soak.json`` and, with matplotlib
-installed, ``soak.png`` (memory and speed over steps) to ``--out``.
+installed, ``soak.png`` (memory and speed over steps) to ``--out`` at every sample, so an
+interrupted run keeps its figures (``complete`` says whether all steps ran).
 """
 
 from __future__ import annotations
@@ -33,6 +34,38 @@ def rss_mib() -> float:
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
+def growth_after_warmup(samples: list[dict[str, float]]) -> float:
+    """Peak resident memory over the first sample's, minus one (the first sample is taken after
+    ``--every`` steps, when allocators and caches have warmed up)."""
+    base = samples[0]["rss_mib"]
+    return (max(s["rss_mib"] for s in samples) - base) / base
+
+
+def write_report(out: Path, report: dict[str, object], samples: list[dict[str, float]]) -> None:
+    """Writes soak.json and, with matplotlib installed, soak.png. Called at every sample, so an
+    interrupted run still leaves its figures."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "soak.json").write_text(json.dumps(report, indent=2))
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return
+    steps = [s["env_steps"] / 1e6 for s in samples]
+    fig, (memory, speed) = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
+    memory.plot(steps, [s["rss_mib"] for s in samples], marker=".")
+    memory.set_ylabel("resident memory (MiB)")
+    speed.plot(steps, [s["env_steps_per_s"] for s in samples], marker=".")
+    speed.set_ylabel("env-steps/s")
+    speed.set_xlabel("million environment steps")
+    fig.suptitle(f"soak: {report['env_id']}, {report['n_envs']} envs, {report['arm']} arm")
+    fig.tight_layout()
+    fig.savefig(out / "soak.png", dpi=100)
+    plt.close(fig)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env-id", default="panda_rapier/PickAndPlace-v0")
@@ -49,6 +82,7 @@ def main() -> None:
     rng = np.random.default_rng(0)
     pool = rng.uniform(-1, 1, (256, args.n_envs, *venv.action_space.shape)).astype(np.float32)
     samples: list[dict[str, float]] = []
+    report: dict[str, object] = {}
     episodes = unstable = 0
     done = last_done = 0
     last_time = start = time.perf_counter()
@@ -72,49 +106,32 @@ def main() -> None:
                         "elapsed_s": now - start,
                     }
                 )
-                last_done, last_time = done, now
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    base = samples[0]["rss_mib"]
-    growth = (max(s["rss_mib"] for s in samples) - base) / base
-    report = {
-        "env_id": args.env_id,
-        "arm": args.arm,
-        "n_envs": args.n_envs,
-        "env_steps": done,
-        "episodes": episodes,
-        "physics_unstable_episodes": unstable,
-        "rss_after_warmup_mib": base,
-        "peak_rss_mib": peak,
-        "memory_growth_after_warmup": growth,
-        "samples": samples,
-    }
+                report = {
+                    "env_id": args.env_id,
+                    "arm": args.arm,
+                    "n_envs": args.n_envs,
+                    "steps_requested": args.steps,
+                    "env_steps": done,
+                    "complete": done >= args.steps,
+                    "episodes": episodes,
+                    "physics_unstable_episodes": unstable,
+                    "rss_after_warmup_mib": samples[0]["rss_mib"],
+                    "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                    "memory_growth_after_warmup": growth_after_warmup(samples),
+                    "env_steps_per_s_overall": done / (now - start),
+                    "samples": samples,
+                }
+                write_report(args.out, report, samples)
+                last_done, last_time = done, time.perf_counter()
     print(f"{'env steps':>12} {'RSS MiB':>9} {'env-steps/s':>12}")
     for s in samples:
         print(f"{s['env_steps']:>12,} {s['rss_mib']:>9.1f} {s['env_steps_per_s']:>12,.0f}")
     print(
         f"{done:,} env steps, {episodes:,} episodes ({unstable} ended by a blow-up), "
-        f"memory growth after warm-up {growth:+.2%} (peak RSS {peak:.0f} MiB), "
-        f"{done / (time.perf_counter() - start):,.0f} env-steps/s overall"
+        f"memory growth after warm-up {report['memory_growth_after_warmup']:+.2%} "
+        f"(peak RSS {report['peak_rss_mib']:.0f} MiB), "
+        f"{report['env_steps_per_s_overall']:,.0f} env-steps/s overall"
     )
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "soak.json").write_text(json.dumps(report, indent=2))
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        return
-    steps = [s["env_steps"] / 1e6 for s in samples]
-    fig, (memory, speed) = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
-    memory.plot(steps, [s["rss_mib"] for s in samples], marker=".")
-    memory.set_ylabel("resident memory (MiB)")
-    speed.plot(steps, [s["env_steps_per_s"] for s in samples], marker=".")
-    speed.set_ylabel("env-steps/s")
-    speed.set_xlabel("million environment steps")
-    fig.suptitle(f"soak: {args.env_id}, {args.n_envs} envs, {args.arm} arm")
-    fig.tight_layout()
-    fig.savefig(args.out / "soak.png", dpi=100)
 
 
 if __name__ == "__main__":

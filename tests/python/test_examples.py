@@ -61,5 +61,5 @@ def test_soak_script_reports_memory_and_speed(tmp_path: Path) -> None:
               "--no-progress", "--out", tmp_path)  # fmt: skip
     assert "memory growth after warm-up" in out
     report = json.loads((tmp_path / "soak.json").read_text())
-    assert report["env_steps"] == 256 and len(report["samples"]) == 2
+    assert report["env_steps"] == 256 and len(report["samples"]) == 2 and report["complete"]
     assert all(s["rss_mib"] > 0 and s["env_steps_per_s"] > 0 for s in report["samples"])
