@@ -90,6 +90,9 @@ def test_keyboard_interrupt_during_a_batched_step_leaves_the_env_usable() -> Non
         os.kill(os.getpid(), signal.SIGINT)
 
     interrupted = False
+    # A background job of a non-interactive shell (`cmd &`) inherits SIGINT ignored, and Python
+    # then installs no handler: the test sets the one an interactive user has.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Thread(target=interrupt)
     timer.start()
     try:
@@ -97,7 +100,9 @@ def test_keyboard_interrupt_during_a_batched_step_leaves_the_env_usable() -> Non
             envs.step(actions)
     except KeyboardInterrupt:
         interrupted = True
-    timer.join()
+    finally:
+        timer.join()
+        signal.signal(signal.SIGINT, previous)
     assert interrupted
     # The step that was running finished in Rust (the GIL was released, so Python saw the
     # signal only afterwards); the environment goes on.
