@@ -100,13 +100,12 @@ def _timed(step: Callable[[int], None], steps: int) -> float:
 
 
 def _measure_once(case: BenchCase, steps: int) -> float:
-    """Measures ``case`` once (``steps`` calls), appends the rate, closes the environments and
-    drops every reference to them, so they are freed before the next case is built: ``close``
+    """Measures ``case`` once (``steps`` calls), closes its environments and drops every
+    reference to them, so they are freed before the next case is built: ``close``
     alone does not free envpool's batches (its MuJoCo peers hold 2-3 GB at N = 256 until
     garbage-collected), and a full run kept one batch per case alive until it was OOM-killed
     at 24 GB."""
     rate = case.runner(steps)
-    case.rates.append(rate)
     case.close()
     case.runner, case.close = _closed, _noop
     gc.collect()
@@ -323,12 +322,10 @@ def run_benchmark(
                 failed[i] = "peer"
                 continue
             record = records.setdefault(case.key, case)
-            rate = _measure_once(case, max(1, env_steps // case.num_envs))
+            record.rates.append(_measure_once(case, max(1, env_steps // case.num_envs)))
             if record is not case:
-                record.rates.append(rate)
                 for k, v in case.episodes.items():
                     record.episodes[k] += v
-            del case
             if progress is not None:
                 progress(round_index * len(builders) + i + 1, total,
                          f"{record.target} {record.policy} N={record.num_envs}")  # fmt: skip
