@@ -6,6 +6,10 @@
     panda-rapier eval --policy runs/tqc_her/model.zip --episodes 100 --json eval.json
     panda-rapier eval --policy scripted --episodes 2 --video scripted.mp4
     panda-rapier bench --num-envs 1 16 64 256 --json bench.json
+    panda-rapier train --algo bc --env-id panda_rapier/PickAndPlace-v0 --out runs/bc
+    panda-rapier train --algo ppo --env-id panda_rapier/PickAndPlaceDense-v0 --out runs/ppo
+    panda-rapier curves runs/bc runs/ppo --out curves.png
+    panda-rapier models-table models/ --out models/README.md
 """
 
 from __future__ import annotations
@@ -156,7 +160,154 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--json", type=Path, default=None, help="write the report here")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
     bench.set_defaults(run=_run_bench)
+
+    from .training import ALGORITHMS
+
+    train = commands.add_parser(
+        "train",
+        help="train a policy (PPO, SAC, TQC with stable-baselines3, or bc: behaviour cloning "
+        "and DAgger from the scripted expert)",
+        description="Trains ALGO on an environment id with the recipe's hyperparameters "
+        "(rl-zoo3's YAML format; default: the package's hyperparams/ALGO.yml) on the native "
+        "stable-baselines3 VecEnv, with a progress bar, TensorBoard logs, periodic seeded "
+        "evaluation on validation seeds (success rate with its 95 %% interval), checkpoints "
+        "and --resume. Writes model.zip, best.zip, run.json and evaluations.jsonl to OUT.",
+    )
+    train.add_argument("--algo", choices=ALGORITHMS, required=True)
+    train.add_argument("--env-id", choices=ENV_IDS, default=DEFAULT_ENV_ID)
+    train.add_argument("--out", type=Path, required=True, help="run directory")
+    train.add_argument("--conf", type=Path, default=None, help="recipe file (rl-zoo3 YAML)")
+    train.add_argument("--seed", type=_non_negative, default=0)
+    train.add_argument(
+        "--timesteps", type=_positive, default=None, help="env steps (default: the recipe's)"
+    )
+    train.add_argument("--n-envs", type=_positive, default=None, help="default: the recipe's")
+    train.add_argument(
+        "--env-kwargs",
+        nargs="*",
+        default=[],
+        metavar="KEY=JSON",
+        help="environment options added to the recipe's, e.g. arm='\"kinematic\"' or "
+        "max_episode_steps=80 (values are JSON; bare words are taken as strings)",
+    )
+    train.add_argument(
+        "--eval-every", type=_non_negative, default=250_000, help="env steps between "
+        "evaluations (0: none; bc evaluates after each round)"
+    )
+    train.add_argument("--eval-episodes", type=_positive, default=100)
+    train.add_argument(
+        "--checkpoint-every", type=_non_negative, default=500_000, help="env steps (0: none)"
+    )
+    train.add_argument("--resume", action="store_true", help="continue the run in OUT")
+    train.add_argument(
+        "--threads", type=_positive, default=None, help="environment threads (default: all)"
+    )
+    train.add_argument(
+        "--torch-threads", type=_positive, default=1, help="torch threads (default 1: more "
+        "fight the environment's threads for the cores)"
+    )
+    train.add_argument("--quiet", action="store_true", help="no progress bar")
+    train.set_defaults(run=_run_train)
+
+    curves = commands.add_parser(
+        "curves",
+        help="plot success rate against env steps and wall time from training runs",
+        description="Reads each run's evaluations.jsonl (and its run.json for the label) "
+        "and draws success and placed rates, with 95 %% intervals, against env steps and "
+        "against wall-clock minutes. Needs matplotlib.",
+    )
+    curves.add_argument("runs", type=Path, nargs="+", help="run directories")
+    curves.add_argument("--out", type=Path, required=True, help="PNG file")
+    curves.add_argument(
+        "--reference",
+        type=Path,
+        default=None,
+        help="JSON of other recipes' measured throughput to draw as reference lines",
+    )
+    curves.set_defaults(run=_run_curves)
+
+    table = commands.add_parser(
+        "models-table",
+        help="evaluate every model in a folder and write its README table",
+        description="Evaluates each MODEL.zip in FOLDER with `panda-rapier eval`'s defaults "
+        "(1000 episodes, seeds 0..999, the environment recorded in the model) and writes a "
+        "markdown table of algorithm, env id and options, env steps, wall time, success rate "
+        "with its 95 %% interval, placed rate and the command that reproduces each.",
+    )
+    table.add_argument("folder", type=Path)
+    table.add_argument("--out", type=Path, default=None, help="default: FOLDER/README.md")
+    table.add_argument("--episodes", type=_positive, default=1000)
+    table.add_argument("--quiet", action="store_true", help="no progress bar")
+    table.set_defaults(run=_run_models_table)
     return parser
+
+
+def _env_kwargs(items: Sequence[str]) -> dict[str, Any]:
+    options: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        if not sep or not key:
+            raise ValueError(f"--env-kwargs takes KEY=VALUE, got {item!r}")
+        try:
+            options[key] = json.loads(text)
+        except ValueError:
+            options[key] = text
+    return options
+
+
+def _run_train(args: argparse.Namespace) -> int:
+    from .training import train
+
+    run = train(
+        args.algo,
+        args.env_id,
+        args.out,
+        conf=args.conf,
+        seed=args.seed,
+        timesteps=args.timesteps,
+        n_envs=args.n_envs,
+        num_threads=args.threads,
+        env_kwargs=_env_kwargs(args.env_kwargs),
+        eval_every=args.eval_every,
+        eval_episodes=args.eval_episodes,
+        checkpoint_every=args.checkpoint_every,
+        resume=args.resume,
+        torch_threads=args.torch_threads,
+        progress=not args.quiet,
+        command=["panda-rapier", *sys.argv[1:]],
+    )
+    minutes = run["wall_time_s"] / 60
+    print(
+        f"trained {args.algo} on {args.env_id}: {run['env_steps']:,} env steps in "
+        f"{minutes:.1f} min; model written to {args.out / 'model.zip'}"
+    )
+    last = run.get("last_evaluation")
+    if last is not None:
+        low, high = last["success_ci95"]
+        print(
+            f"last validation: success {last['success_rate']:.3f} ({low:.3f}-{high:.3f}), "
+            f"placed {last['placed_rate']:.3f} over {last['episodes']} episodes"
+        )
+    return 0
+
+
+def _run_curves(args: argparse.Namespace) -> int:
+    from .reporting import plot_curves
+
+    plot_curves(args.runs, args.out, reference=args.reference)
+    print(f"curves written to {args.out}")
+    return 0
+
+
+def _run_models_table(args: argparse.Namespace) -> int:
+    from .reporting import models_table
+
+    out = args.out or args.folder / "README.md"
+    text = models_table(args.folder, episodes=args.episodes, progress=not args.quiet)
+    out.write_text(text)
+    print(text)
+    print(f"table written to {out}")
+    return 0
 
 
 def _run_bench(args: argparse.Namespace) -> int:
@@ -191,15 +342,18 @@ def _run_bench(args: argparse.Namespace) -> int:
     return 0
 
 
-def _model_env_id(model_path: Path) -> str | None:
-    """The environment id the training scripts recorded beside a model (``run.json``)."""
-    run_file = model_path.parent / "run.json"
-    try:
-        run = json.loads(run_file.read_text())
-    except (OSError, ValueError):
-        return None
+def _model_env(model_path: Path) -> tuple[str | None, dict[str, Any]]:
+    """The environment id and options recorded with a model (by ``panda-rapier train``: inside
+    the zip; by the example scripts: ``run.json`` beside it)."""
+    from .training import read_run_info
+
+    run = read_run_info(model_path) or {}
     env_id = run.get("env_id")
-    return env_id if env_id in ENV_IDS else None
+    options = run.get("env_kwargs")
+    return (
+        env_id if env_id in ENV_IDS else None,
+        dict(options) if isinstance(options, dict) else {},
+    )
 
 
 def _model_control_mode(model_path: Path) -> str:
@@ -238,8 +392,10 @@ def _run_eval(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             return 2
-        env_id = args.env_id or _model_env_id(model_path) or DEFAULT_ENV_ID
-        if args.control is None:
+        recorded_id, recorded = _model_env(model_path)
+        env_id = args.env_id or recorded_id or DEFAULT_ENV_ID
+        overrides = {**(recorded if env_id == recorded_id else {}), **overrides}
+        if args.control is None and "control_mode" not in overrides:
             overrides["control_mode"] = _model_control_mode(model_path)
         from .sb3 import make_vec_env
 

@@ -1,0 +1,131 @@
+"""Observation normalisation inside the policy network, so a saved model is self-contained.
+
+Gymnasium-Robotics and rl-zoo3 normalise observations with a ``VecNormalize`` wrapper whose
+statistics live in a separate file that every user of the model must find and apply.
+:class:`NormalizedFlatten` is a stable-baselines3 features extractor instead: it flattens the
+goal dict in Gymnasium's order and standardises it with a mean and scale held as buffers of the
+network, saved and loaded with the model's weights. The statistics are fitted once, before
+training, to the states the scripted expert visits (:func:`expert_statistics`; the whole task,
+from reaching to placing), and never change afterwards, so evaluation is deterministic.
+
+In a recipe (rl-zoo3 format)::
+
+    policy_kwargs: "dict(features_extractor_class=NormalizedFlatten)"
+    callback: panda_rapier.normalization.FitNormalizerCallback
+
+(``panda-rapier train`` resolves ``NormalizedFlatten``; rl-zoo3 needs the full path
+``__import__('panda_rapier.normalization').normalization.NormalizedFlatten``.)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch as th
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+
+__all__ = [
+    "FitNormalizerCallback",
+    "NormalizedFlatten",
+    "expert_statistics",
+    "fit_normalizers",
+]
+
+#: Smallest scale a feature is divided by: entries that barely move in the expert's episodes
+#: (the cube's tilt) must not turn float noise into large inputs.
+MIN_SCALE = 0.01
+#: Bound of a normalised entry.
+CLIP = 10.0
+#: Episodes of the scripted expert the statistics are taken from, and the seed of the first.
+FIT_EPISODES = 64
+FIT_FIRST_SEED = 2_000_000_000
+
+
+class NormalizedFlatten(BaseFeaturesExtractor):
+    """Flattens a ``Dict`` observation (keys sorted, as ``gymnasium.spaces.flatten`` does) and
+    maps each entry to ``clip((x - mean) / scale, -10, 10)``. Until :meth:`fit` is called the
+    map is the identity."""
+
+    def __init__(self, observation_space: gym.spaces.Dict, clip: float = CLIP) -> None:
+        if not isinstance(observation_space, gym.spaces.Dict):
+            raise TypeError(f"NormalizedFlatten needs a Dict space, got {observation_space}")
+        keys = sorted(observation_space.spaces)
+        dim = sum(int(np.prod(observation_space.spaces[k].shape)) for k in keys)
+        super().__init__(observation_space, features_dim=dim)
+        self.keys = keys
+        self.clip = float(clip)
+        self.register_buffer("mean", th.zeros(dim))
+        self.register_buffer("scale", th.ones(dim))
+
+    def fit(self, flat: np.ndarray, min_scale: float = MIN_SCALE) -> None:
+        """Sets mean and scale (standard deviation, at least ``min_scale``) from rows of flat
+        observations."""
+        flat = np.asarray(flat, dtype=np.float64)
+        if flat.ndim != 2 or flat.shape[1] != self.features_dim or flat.shape[0] < 2:
+            raise ValueError(
+                f"fit needs at least 2 rows of {self.features_dim} values, got {flat.shape}"
+            )
+        self.mean.copy_(th.as_tensor(flat.mean(axis=0), dtype=th.float32))
+        scale = np.maximum(flat.std(axis=0), min_scale)
+        self.scale.copy_(th.as_tensor(scale, dtype=th.float32))
+
+    def forward(self, observations: Mapping[str, th.Tensor]) -> th.Tensor:  # type: ignore[override]
+        flat = th.cat([observations[k].flatten(start_dim=1) for k in self.keys], dim=1)
+        return ((flat - self.mean) / self.scale).clamp(-self.clip, self.clip)
+
+
+def fit_normalizers(policy: th.nn.Module, flat: np.ndarray) -> int:
+    """Fits every :class:`NormalizedFlatten` in ``policy`` (actor and critics of off-policy
+    algorithms have their own) to ``flat``; returns how many were fitted."""
+    fitted = 0
+    for module in policy.modules():
+        if isinstance(module, NormalizedFlatten):
+            module.fit(flat)
+            fitted += 1
+    return fitted
+
+
+def expert_statistics(
+    config: Mapping[str, Any],
+    episodes: int = FIT_EPISODES,
+    first_seed: int = FIT_FIRST_SEED,
+) -> np.ndarray:
+    """The flat observations of ``episodes`` seeded episodes of the scripted expert in the
+    environment ``config`` (deterministic: the same rows every time)."""
+    from .imitation import collect
+
+    demos, _ = collect(config, episodes, first_seed=first_seed)
+    return demos.observations
+
+
+def _config_of_vec_env(env: Any) -> dict[str, Any]:
+    config = env.get_attr("config", [0])[0]
+    if not isinstance(config, Mapping):  # pragma: no cover - a non-panda_rapier env
+        raise TypeError("FitNormalizerCallback needs a panda_rapier environment")
+    return dict(config)
+
+
+class FitNormalizerCallback(BaseCallback):
+    """At the start of training, fits the model's :class:`NormalizedFlatten` extractors to
+    the scripted expert's states in the training environment (unless already fitted, as in a
+    resumed run or a cloned policy)."""
+
+    def __init__(self, episodes: int = FIT_EPISODES, verbose: int = 0) -> None:
+        super().__init__(verbose)
+        self.episodes = int(episodes)
+
+    def _on_training_start(self) -> None:
+        extractors = [m for m in self.model.policy.modules() if isinstance(m, NormalizedFlatten)]
+        if not extractors or any(bool((m.scale != 1).any()) for m in extractors):
+            return
+        flat = expert_statistics(_config_of_vec_env(self.training_env), self.episodes)
+        fit_normalizers(self.model.policy, flat)
+        if self.verbose:
+            print(f"observation normaliser fitted to {len(flat)} expert states")
+
+    def _on_step(self) -> bool:
+        return True

@@ -1,0 +1,160 @@
+"""Learning curves and the table of shipped models: what ``panda-rapier curves`` and
+``panda-rapier models-table`` run.
+
+Both read what ``panda-rapier train`` writes (``evaluations.jsonl``, ``run.json``, the run
+record inside each model zip); the table evaluates every model with exactly the command a
+user runs, ``panda-rapier eval --policy MODEL.zip``, so nothing in it is typed by hand.
+"""
+
+from __future__ import annotations
+
+import json
+import shlex
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from .errors import InvalidArgumentError
+from .training import read_run_info
+
+__all__ = ["models_table", "plot_curves", "run_label"]
+
+
+def _evaluations(run: Path) -> list[dict[str, Any]]:
+    path = run / "evaluations.jsonl"
+    try:
+        lines = path.read_text().splitlines()
+    except OSError as error:
+        raise InvalidArgumentError(f"{run} has no evaluations.jsonl: {error}") from error
+    return [json.loads(line) for line in lines if line.strip()]
+
+
+def run_label(run: dict[str, Any]) -> str:
+    """A short name of a run: algorithm, task variant, arm and non-default options."""
+    env = str(run.get("env_id", "?")).split("/")[-1]
+    options = dict(run.get("env_kwargs") or {})
+    arm = options.pop("arm", "dynamic")
+    extra = ", ".join(f"{k}={v}" for k, v in sorted(options.items()))
+    return f"{run.get('algo', '?')} {env} ({arm} arm{', ' + extra if extra else ''})"
+
+
+def plot_curves(
+    runs: Sequence[Path], out: Path, reference: Path | None = None
+) -> None:
+    """Success (solid, with its 95 % interval) and placed (dashed) rate of each run's periodic
+    evaluations, against env steps and against wall-clock minutes of training. ``reference``:
+    a JSON list of ``{"label", "env_steps_per_s"}`` (another recipe's measured training
+    throughput on the same machine), drawn on the steps axis at the step count it reaches in
+    the longest run's wall time."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as error:
+        raise ImportError("curves need matplotlib: pip install matplotlib") from error
+    figure, (by_steps, by_time) = plt.subplots(1, 2, figsize=(13, 4.8))
+    longest = 0.0
+    for index, run_dir in enumerate(runs):
+        lines = _evaluations(Path(run_dir))
+        run = json.loads((Path(run_dir) / "run.json").read_text())
+        color = f"C{index}"
+        steps = [line["env_steps"] for line in lines]
+        minutes = [line["wall_time_s"] / 60 for line in lines]
+        longest = max(longest, max(minutes, default=0.0))
+        success = [line["success_rate"] for line in lines]
+        low = [line["success_ci95"][0] for line in lines]
+        high = [line["success_ci95"][1] for line in lines]
+        placed = [line["placed_rate"] for line in lines]
+        for axis, x in ((by_steps, steps), (by_time, minutes)):
+            axis.plot(x, success, "-o", color=color, ms=3, label=f"{run_label(run)}: success")
+            axis.fill_between(x, low, high, color=color, alpha=0.15)
+            axis.plot(x, placed, "--", color=color, label=f"{run_label(run)}: placed")
+    if reference is not None and longest > 0:
+        for index, item in enumerate(json.loads(Path(reference).read_text())):
+            reached = float(item["env_steps_per_s"]) * longest * 60
+            by_steps.axvline(reached, color=f"C{7 + index % 3}", ls=":", lw=1.5)
+            by_steps.annotate(
+                f"{item['label']}: {reached:,.0f} steps\nin {longest:.0f} min",
+                (reached, 0.5 - 0.12 * index),
+                fontsize=7,
+                ha="left",
+            )
+    by_steps.set_xlabel("env steps (expert demonstrations and learner rollouts included)")
+    by_steps.set_xscale("log")
+    by_time.set_xlabel("wall-clock minutes of training on 2 cores (evaluations excluded)")
+    for axis in (by_steps, by_time):
+        axis.set_ylabel("rate on validation seeds")
+        axis.set_ylim(-0.02, 1.02)
+        axis.grid(alpha=0.3)
+    by_time.legend(fontsize=7, loc="lower right")
+    figure.suptitle("panda_rapier: learning curves (solid: success, dashed: cube placed)")
+    figure.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(out, dpi=110)
+    plt.close(figure)
+
+
+def _evaluate_file(model: Path, episodes: int, quiet: bool) -> dict[str, Any]:
+    from .cli import main
+
+    with tempfile.TemporaryDirectory() as folder:
+        report = Path(folder) / "eval.json"
+        argv = ["eval", "--policy", str(model), "--episodes", str(episodes), "--json", str(report)]
+        if quiet:
+            argv.append("--quiet")
+        code = main(argv)
+        if code != 0:
+            raise InvalidArgumentError(f"panda-rapier eval failed on {model} (exit {code})")
+        return dict(json.loads(report.read_text()))
+
+
+def models_table(folder: Path, episodes: int = 1000, progress: bool = True) -> str:
+    """Evaluates every ``*.zip`` in ``folder`` with ``panda-rapier eval --policy MODEL.zip``
+    (seeds ``0 .. episodes - 1``, which no training run uses) and returns the markdown of
+    ``folder``'s README: one row per model."""
+    models = sorted(Path(folder).glob("*.zip"))
+    if not models:
+        raise InvalidArgumentError(f"no .zip models in {folder}")
+    rows = []
+    commands = []
+    for model in models:
+        run = read_run_info(model)
+        if run is None:
+            raise InvalidArgumentError(f"{model} has no run record: was it made by train?")
+        summary = _evaluate_file(model, episodes, quiet=not progress)
+        low, high = summary["success_ci95"]
+        options = json.dumps(run.get("env_kwargs") or {}, sort_keys=True)
+        rows.append(
+            f"| `{model.name}` | {run['algo']} | `{run['env_id']}` | `{options}` "
+            f"| {run['env_steps']:,} | {run['wall_time_s'] / 60:.1f} "
+            f"| {summary['success_rate']:.3f} ({low:.3f}-{high:.3f}) "
+            f"| {summary['placed_rate']:.3f} |"
+        )
+        commands.append(
+            f"- `{model.name}`: `{shlex.join(run['command'])}`, then copy "
+            f"`{_out_of(run['command'])}/model.zip` here as `{model.name}`"
+        )
+    header = (
+        "# Trained policies\n\n"
+        f"Generated by `panda-rapier models-table {folder.as_posix()}`: every row is "
+        f"`panda-rapier eval --policy {folder.as_posix()}/NAME.zip` (no other flag: the "
+        f"environment id and options are stored in the zip) on {episodes} episodes, seeds "
+        f"0..{episodes - 1}, which no training run uses. Wall time is training on the 2-core "
+        "development machine, evaluations excluded; env steps include the expert's "
+        "demonstrations and every rollout the learner drove. Success: the cube within 5 cm of "
+        "the goal at the last step (95 % Wilson interval); placed: also released and at rest "
+        "on the platform.\n\n"
+        "| model | algorithm | env id | options | env steps | wall time (min) "
+        "| success (95 % CI) | placed |\n|---|---|---|---|---|---|---|---|\n"
+    )
+    return header + "\n".join(rows) + "\n\n## Reproduce\n\n" + "\n".join(commands) + "\n"
+
+
+def _out_of(command: Sequence[str]) -> str:
+    parts = list(command)
+    for flag in ("--out",):
+        if flag in parts and parts.index(flag) + 1 < len(parts):
+            return parts[parts.index(flag) + 1]
+    return "OUT"

@@ -1,0 +1,539 @@
+"""Training: what ``panda-rapier train`` runs.
+
+A run trains one algorithm on one registered id with the native stable-baselines3 ``VecEnv``
+and writes everything to its output directory:
+
+- ``model.zip`` (the final model; ``best.zip``: the best periodic evaluation's), loadable by
+  stable-baselines3 and by ``panda-rapier eval --policy DIR/model.zip`` with no other flag: the
+  env id and every environment option are stored inside the zip (``panda_rapier_run.json``)
+  and in ``run.json``;
+- ``run.json``: versions, seeds, hyperparameters, the command, steps, wall time and the last
+  evaluation;
+- ``evaluations.jsonl``: one line per periodic evaluation (env steps, wall time, success rate
+  with its 95 % interval, placed rate, mean return) on validation seeds, which neither the
+  training episodes nor the final test seeds (``panda-rapier eval``'s default, 0 to 999) use;
+- ``tensorboard/`` (``tensorboard --logdir DIR``) and ``checkpoints/latest.zip`` with
+  ``checkpoints/state.json`` for ``--resume``.
+
+Hyperparameters come from a recipe file in rl-zoo3's YAML format (one entry per env id; the
+package's own in ``panda_rapier/hyperparams/ALGO.yml``), so ``python -m rl_zoo3.train --algo
+ppo --env ID --gym-packages panda_rapier -conf FILE`` reads the same file. ``bc`` (behaviour
+cloning and DAgger from the scripted expert, :mod:`panda_rapier.imitation`) is ours; its
+recipe has its own keys and it saves a PPO model.
+
+Seeds: the training environments and the expert's demonstrations are seeded from
+``TRAIN_FIRST_SEED + 1_000_000 * seed``, periodic evaluations use ``VALIDATION_FIRST_SEED``
+onwards, and the final test (``panda-rapier eval``) seeds ``0, 1, ...``.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import sys
+import time
+import zipfile
+from collections.abc import Callable, Mapping
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import __version__
+from .errors import ConfigError, InvalidArgumentError
+from .registration import ENV_IDS, env_config
+
+__all__ = [
+    "ALGORITHMS",
+    "TRAIN_FIRST_SEED",
+    "VALIDATION_FIRST_SEED",
+    "load_recipe",
+    "read_run_info",
+    "train",
+]
+
+#: Algorithms ``panda-rapier train`` knows.
+ALGORITHMS = ("ppo", "sac", "tqc", "bc")
+#: First seed of the training episodes (run seed 0).
+TRAIN_FIRST_SEED = 1_000_000_000
+#: First seed of the periodic evaluations during training.
+VALIDATION_FIRST_SEED = 500_000_000
+#: Name of the run record stored inside a saved model zip.
+RUN_MEMBER = "panda_rapier_run.json"
+
+# Recipe keys that configure the run rather than the algorithm (rl-zoo3's names).
+_RUN_KEYS = ("n_timesteps", "policy", "n_envs", "env_kwargs", "callback", "normalize")
+_UNSUPPORTED = ("frame_stack", "env_wrapper", "vec_env_wrapper")
+_BC_KEYS = {
+    "policy": "MultiInputPolicy",
+    "policy_kwargs": None,
+    "n_envs": 32,
+    "demo_episodes": 200,
+    "dagger_rounds": 8,
+    "dagger_episodes": 250,
+    "epochs": 30,
+    "dagger_epochs": 10,
+    "batch_size": 256,
+    "learning_rate": 1e-3,
+}
+
+
+def _yaml() -> Any:
+    try:
+        import yaml
+    except ImportError as error:  # pragma: no cover - part of the train extra
+        raise ImportError("recipes need PyYAML: pip install 'panda-rapier[train]'") from error
+    return yaml
+
+
+def default_recipe_path(algo: str) -> Path:
+    """The package's recipe file for ``algo``."""
+    return Path(str(resources.files("panda_rapier") / "hyperparams" / f"{algo}.yml"))
+
+
+def load_recipe(algo: str, env_id: str, conf: str | Path | None = None) -> dict[str, Any]:
+    """The hyperparameters of ``algo`` on ``env_id`` from a recipe file (rl-zoo3's format:
+    a mapping from env id to hyperparameters; default: the package's ``hyperparams/ALGO.yml``)."""
+    if algo not in ALGORITHMS:
+        raise InvalidArgumentError(f"algo must be one of {ALGORITHMS}, got {algo!r}")
+    path = Path(conf) if conf is not None else default_recipe_path(algo)
+    try:
+        recipes = _yaml().safe_load(path.read_text())
+    except OSError as error:
+        raise ConfigError(f"cannot read the recipe file {path}: {error}") from error
+    if not isinstance(recipes, Mapping) or env_id not in recipes:
+        known = sorted(recipes) if isinstance(recipes, Mapping) else []
+        raise ConfigError(f"{path} has no recipe for {env_id}; it has {known}")
+    recipe = dict(recipes[env_id] or {})
+    for key in _UNSUPPORTED:
+        if key in recipe:
+            raise ConfigError(f"recipe key {key!r} is not supported by panda-rapier train")
+    if recipe.get("normalize"):
+        raise ConfigError(
+            "recipe key 'normalize' (VecNormalize) is not used here: normalise inside the "
+            "network with features_extractor_class=NormalizedFlatten, so the saved model is "
+            "self-contained"
+        )
+    if algo == "bc":
+        unknown = set(recipe) - set(_BC_KEYS)
+        if unknown:
+            raise ConfigError(f"unknown bc recipe keys {sorted(unknown)}; known: {list(_BC_KEYS)}")
+        return {**_BC_KEYS, **recipe}
+    return recipe
+
+
+def _schedule(value: Any) -> Any:
+    """rl-zoo3's ``lin_X`` strings: a linear decay from X to 0."""
+    if isinstance(value, str) and value.startswith("lin_"):
+        start = float(value[4:])
+        return lambda progress_remaining: progress_remaining * start
+    return value
+
+
+def _evaluate_expression(text: str) -> Any:
+    """rl-zoo3 evaluates string-valued ``policy_kwargs`` / ``replay_buffer_kwargs`` as Python;
+    the same names are available here (``nn``, ``th``), plus ``NormalizedFlatten``."""
+    import torch as th
+    from torch import nn
+
+    from .normalization import NormalizedFlatten
+
+    names = {"nn": nn, "th": th, "torch": th, "NormalizedFlatten": NormalizedFlatten}
+    try:
+        return eval(text, names)
+    except Exception as error:
+        raise ConfigError(f"cannot evaluate recipe expression {text!r}: {error}") from error
+
+
+def _callbacks(spec: Any) -> list[Any]:
+    """Callbacks named in a recipe (rl-zoo3: a class path, or a mapping of it to kwargs, or a
+    list of either)."""
+    import importlib
+
+    items = spec if isinstance(spec, list) else [spec] if spec else []
+    built = []
+    for item in items:
+        path, kwargs = (next(iter(item.items())) if isinstance(item, Mapping) else (item, {}))
+        module, _, name = str(path).rpartition(".")
+        try:
+            built.append(getattr(importlib.import_module(module), name)(**(kwargs or {})))
+        except (ImportError, AttributeError, TypeError) as error:
+            raise ConfigError(f"cannot build the recipe callback {path!r}: {error}") from error
+    return built
+
+
+def _algorithm_class(algo: str) -> Any:
+    if algo == "tqc":
+        from sb3_contrib import TQC
+
+        return TQC
+    import stable_baselines3
+
+    return getattr(stable_baselines3, "PPO" if algo == "bc" else algo.upper())
+
+
+def _model_kwargs(algo: str, recipe: Mapping[str, Any]) -> dict[str, Any]:
+    kwargs = {k: v for k, v in recipe.items() if k not in _RUN_KEYS}
+    for key in ("policy_kwargs", "replay_buffer_kwargs"):
+        if isinstance(kwargs.get(key), str):
+            kwargs[key] = _evaluate_expression(kwargs[key])
+    for key in ("learning_rate", "clip_range"):
+        if key in kwargs:
+            kwargs[key] = _schedule(kwargs[key])
+    if isinstance(kwargs.get("replay_buffer_class"), str):
+        from stable_baselines3 import HerReplayBuffer
+
+        if kwargs["replay_buffer_class"] != "HerReplayBuffer":
+            raise ConfigError(f"unknown replay_buffer_class {kwargs['replay_buffer_class']!r}")
+        kwargs["replay_buffer_class"] = HerReplayBuffer
+    return kwargs
+
+
+def versions() -> dict[str, str]:
+    """Versions of what a run depends on."""
+    found = {"panda_rapier": __version__, "python": platform.python_version()}
+    for name in ("stable_baselines3", "sb3_contrib", "torch", "numpy", "gymnasium"):
+        try:
+            found[name] = str(__import__(name).__version__)
+        except ImportError:
+            pass
+    return found
+
+
+def read_run_info(model_path: str | Path) -> dict[str, Any] | None:
+    """The run record of a model saved by ``panda-rapier train``: the ``panda_rapier_run.json``
+    inside the zip, else a ``run.json`` beside it; ``None`` if there is neither."""
+    path = Path(model_path)
+    try:
+        with zipfile.ZipFile(path) as archive:
+            return dict(json.loads(archive.read(RUN_MEMBER)))
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile):
+        pass
+    try:
+        return dict(json.loads((path.parent / "run.json").read_text()))
+    except (OSError, ValueError):
+        return None
+
+
+def save_model(model: Any, path: Path, run: Mapping[str, Any]) -> None:
+    """Saves ``model`` to ``path`` with the run record inside the zip."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    model.save(path)
+    with zipfile.ZipFile(path, "a") as archive:
+        archive.writestr(RUN_MEMBER, json.dumps(run, indent=2, default=str))
+
+
+class _Recorder:
+    """Periodic seeded evaluation on validation seeds, ``evaluations.jsonl`` and the best
+    model; wall time counts the training, not the evaluations."""
+
+    def __init__(
+        self,
+        out: Path,
+        config: Mapping[str, Any],
+        run: dict[str, Any],
+        episodes: int,
+        num_threads: int | None,
+        wall_offset: float = 0.0,
+        say: Callable[[str], None] = print,
+    ) -> None:
+        self.out = out
+        self.config = dict(config)
+        self.run = run
+        self.episodes = episodes
+        self.num_threads = num_threads
+        self.wall_offset = wall_offset
+        self.eval_time = 0.0
+        self.started = time.perf_counter()
+        self.say = say
+        self.best: tuple[float, float] | None = None
+        for line in _read_lines(out / "evaluations.jsonl"):
+            key = (line["placed_rate"], line["success_rate"])
+            self.best = key if self.best is None or key > self.best else self.best
+
+    def wall_time(self) -> float:
+        return self.wall_offset + time.perf_counter() - self.started - self.eval_time
+
+    def evaluate(self, model: Any, env_steps: int, logger: Any = None) -> dict[str, Any]:
+        from .evaluation import evaluate
+
+        wall = self.wall_time()
+        began = time.perf_counter()
+        report = evaluate(
+            model,
+            self.config,
+            self.episodes,
+            num_envs=min(32, self.episodes),
+            first_seed=VALIDATION_FIRST_SEED,
+            num_threads=self.num_threads,
+        )
+        self.eval_time += time.perf_counter() - began
+        summary = report.summary()
+        line = {
+            "env_steps": int(env_steps),
+            "wall_time_s": round(wall, 3),
+            "episodes": self.episodes,
+            "first_seed": VALIDATION_FIRST_SEED,
+            "success_rate": summary["success_rate"],
+            "success_ci95": summary["success_ci95"],
+            "placed_rate": summary["placed_rate"],
+            "mean_return": summary["mean_return"],
+        }
+        with (self.out / "evaluations.jsonl").open("a") as file:
+            file.write(json.dumps(line) + "\n")
+        if logger is not None:
+            for key in ("success_rate", "placed_rate", "mean_return"):
+                logger.record(f"eval/{key}", line[key])
+        low, high = line["success_ci95"]
+        self.say(
+            f"[{env_steps:>10,} steps, {wall / 60:6.1f} min] validation success "
+            f"{line['success_rate']:.3f} ({low:.3f}-{high:.3f}), placed {line['placed_rate']:.3f}"
+        )
+        key = (line["placed_rate"], line["success_rate"])
+        if self.best is None or key > self.best:
+            self.best = key
+            save_model(model, self.out / "best.zip", {**self.run, "evaluation": line})
+        self.run["last_evaluation"] = line
+        return line
+
+
+def _read_lines(path: Path) -> list[dict[str, Any]]:
+    try:
+        return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    except (OSError, ValueError):
+        return []
+
+
+def _sb3_callback(
+    recorder: _Recorder, eval_every: int, checkpoint_every: int, state: dict[str, Any]
+) -> Any:
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    out = recorder.out
+
+    class Periodic(BaseCallback):
+        def _on_step(self) -> bool:
+            steps = self.num_timesteps
+            if eval_every and steps >= state["next_eval"]:
+                recorder.evaluate(self.model, steps, self.logger)
+                while state["next_eval"] <= steps:
+                    state["next_eval"] += eval_every
+            if checkpoint_every and steps >= state["next_checkpoint"]:
+                self.save_checkpoint()
+                while state["next_checkpoint"] <= steps:
+                    state["next_checkpoint"] += checkpoint_every
+            return True
+
+        def save_checkpoint(self) -> None:
+            folder = out / "checkpoints"
+            save_model(self.model, folder / "latest.zip", recorder.run)
+            if hasattr(self.model, "save_replay_buffer"):
+                self.model.save_replay_buffer(folder / "replay_buffer.pkl")
+            saved = {**state, "num_timesteps": self.num_timesteps}
+            saved["wall_time_s"] = recorder.wall_time()
+            (folder / "state.json").write_text(json.dumps(saved))
+
+    return Periodic()
+
+
+def train(
+    algo: str,
+    env_id: str,
+    out: str | Path,
+    *,
+    conf: str | Path | None = None,
+    seed: int = 0,
+    timesteps: int | None = None,
+    n_envs: int | None = None,
+    num_threads: int | None = None,
+    env_kwargs: Mapping[str, Any] | None = None,
+    eval_every: int | None = None,
+    eval_episodes: int = 100,
+    checkpoint_every: int | None = None,
+    resume: bool = False,
+    torch_threads: int = 1,
+    progress: bool = True,
+    command: list[str] | None = None,
+    say: Callable[[str], None] = print,
+) -> dict[str, Any]:
+    """Trains ``algo`` on ``env_id`` with its recipe and writes the run to ``out`` (see the
+    module's documentation); returns the run record. ``timesteps`` and ``n_envs`` override
+    the recipe's; ``env_kwargs`` are added to the recipe's environment options."""
+    import torch as th
+
+    if env_id not in ENV_IDS:
+        raise ConfigError(f"unknown environment id {env_id!r}; see panda_rapier.ENV_IDS")
+    th.set_num_threads(torch_threads)
+    out = Path(out)
+    recipe = load_recipe(algo, env_id, conf)
+    options = {**dict(recipe.get("env_kwargs") or {}), **dict(env_kwargs or {})}
+    config = env_config(env_id, **options)
+    train_seed = TRAIN_FIRST_SEED + 1_000_000 * int(seed)
+    state_file = out / "checkpoints" / "state.json"
+    if resume:
+        if not state_file.is_file():
+            raise InvalidArgumentError(f"nothing to resume: {state_file} does not exist")
+        previous = json.loads((out / "run.json").read_text())
+        if previous.get("algo") != algo or previous.get("env_id") != env_id:
+            raise InvalidArgumentError(
+                f"{out} holds a {previous.get('algo')} run on {previous.get('env_id')}"
+            )
+    elif (out / "run.json").exists():
+        raise InvalidArgumentError(f"{out} already holds a run: pass --resume or another --out")
+    out.mkdir(parents=True, exist_ok=True)
+    run: dict[str, Any] = {
+        "algo": algo,
+        "saved_algo": "ppo" if algo == "bc" else algo,
+        "env_id": env_id,
+        "env_kwargs": options,
+        "config": config,
+        "recipe": {k: v for k, v in recipe.items()},
+        "recipe_file": str(conf) if conf is not None else f"panda_rapier/hyperparams/{algo}.yml",
+        "seed": int(seed),
+        "train_first_seed": train_seed,
+        "validation_first_seed": VALIDATION_FIRST_SEED,
+        "torch_threads": torch_threads,
+        "command": command if command is not None else sys.argv,
+        "versions": versions(),
+        "machine": {"cpus": _cpu_count(), "platform": platform.platform()},
+    }
+    if algo == "bc":
+        return _train_bc(run, recipe, config, out, n_envs, num_threads, eval_episodes, say)
+
+    from .sb3 import make_vec_env
+
+    total = int(timesteps if timesteps is not None else recipe.get("n_timesteps", 1_000_000))
+    n = int(n_envs if n_envs is not None else recipe.get("n_envs", 1))
+    run.update(n_envs=n, n_timesteps=total)
+    env = make_vec_env(env_id, n_envs=n, seed=train_seed, num_threads=num_threads, **options)
+    algorithm = _algorithm_class(algo)
+    state = {
+        "next_eval": eval_every or 0,
+        "next_checkpoint": checkpoint_every or 0,
+        "wall_time_s": 0.0,
+        "num_timesteps": 0,
+    }
+    if resume:
+        state.update(json.loads(state_file.read_text()))
+        model = algorithm.load(out / "checkpoints" / "latest.zip", env=env, device="cpu")
+        buffer = out / "checkpoints" / "replay_buffer.pkl"
+        if hasattr(model, "load_replay_buffer") and buffer.is_file():
+            model.load_replay_buffer(buffer)
+        say(f"resuming {out} at {model.num_timesteps:,} steps")
+    else:
+        model = algorithm(
+            recipe.get("policy", "MultiInputPolicy"),
+            env,
+            seed=int(seed),
+            device="cpu",
+            tensorboard_log=str(out / "tensorboard"),
+            verbose=0,
+            **_model_kwargs(algo, recipe),
+        )
+    recorder = _Recorder(
+        out, config, run, eval_episodes, num_threads, float(state["wall_time_s"]), say
+    )
+    (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
+    callbacks = [
+        *_callbacks(recipe.get("callback")),
+        _sb3_callback(recorder, eval_every or 0, checkpoint_every or 0, state),
+    ]
+    remaining = total - int(model.num_timesteps)
+    if remaining > 0:
+        model.learn(
+            remaining,
+            callback=callbacks,
+            progress_bar=progress,
+            reset_num_timesteps=not resume,
+            tb_log_name=algo,
+        )
+    run["env_steps"] = int(model.num_timesteps)
+    run["wall_time_s"] = round(recorder.wall_time(), 3)
+    if eval_every:
+        recorder.evaluate(model, int(model.num_timesteps))
+    save_model(model, out / "model.zip", run)
+    (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
+    if remaining > 0:
+        callbacks[-1].save_checkpoint()  # a later --resume with more --timesteps goes on
+    return run
+
+
+def _cpu_count() -> int:
+    import os
+
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def _train_bc(
+    run: dict[str, Any],
+    recipe: Mapping[str, Any],
+    config: Mapping[str, Any],
+    out: Path,
+    n_envs: int | None,
+    num_threads: int | None,
+    eval_episodes: int,
+    say: Callable[[str], None],
+) -> dict[str, Any]:
+    """Behaviour cloning and DAgger from the scripted expert (see :mod:`.imitation`)."""
+    from stable_baselines3 import PPO
+    from tqdm import tqdm
+
+    from .imitation import dagger
+    from .sb3 import make_vec_env
+
+    n = int(n_envs if n_envs is not None else recipe["n_envs"])
+    run.update(n_envs=n)
+    policy_kwargs = recipe.get("policy_kwargs")
+    if isinstance(policy_kwargs, str):
+        policy_kwargs = _evaluate_expression(policy_kwargs)
+    env = make_vec_env(run["env_id"], n_envs=1, **run["env_kwargs"])
+    model = PPO(
+        recipe["policy"], env, policy_kwargs=policy_kwargs, seed=run["seed"], device="cpu"
+    )
+    recorder = _Recorder(out, config, run, eval_episodes, num_threads, 0.0, say)
+    (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
+    env_steps = 0
+    bars: dict[str, Any] = {}
+
+    def progress(what: str, done: int, total: int) -> None:
+        bar = bars.get(what)
+        if bar is None:
+            bar = bars[what] = tqdm(total=total, desc=what, unit="ep", leave=False)
+        bar.update(done - bar.n)
+        if done >= total:
+            bar.close()
+
+    def on_round(r: int, data: Any, stats: Any, losses: list[float]) -> None:
+        nonlocal env_steps
+        env_steps = int(len(data))
+        drove = (
+            "expert demonstrations"
+            if stats is None
+            else f"learner drove: success {stats.success_rate:.3f}, placed {stats.placed_rate:.3f}"
+        )
+        say(f"round {r}: {len(data):,} labelled states ({drove}); loss {losses[-1]:.4f}")
+        recorder.evaluate(model, env_steps)
+
+    data = dagger(
+        model,
+        config,
+        demo_episodes=int(recipe["demo_episodes"]),
+        rounds=int(recipe["dagger_rounds"]),
+        episodes_per_round=int(recipe["dagger_episodes"]),
+        epochs=int(recipe["epochs"]),
+        epochs_per_round=int(recipe["dagger_epochs"]),
+        first_seed=run["train_first_seed"],
+        batch_size=int(recipe["batch_size"]),
+        learning_rate=float(recipe["learning_rate"]),
+        num_envs=n,
+        num_threads=num_threads,
+        on_round=on_round,
+        progress=progress,
+    )
+    run["env_steps"] = int(len(data))
+    run["demonstration_episodes"] = data.num_episodes
+    run["wall_time_s"] = round(recorder.wall_time(), 3)
+    save_model(model, out / "model.zip", run)
+    (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
+    return run
