@@ -91,7 +91,7 @@ def test_seeded_vec_env_gives_the_same_rollouts_twice() -> None:
         np.testing.assert_array_equal(a, b)
 
 
-def test_ppo_learns_on_the_native_vec_env() -> None:
+def test_ppo_trains_on_the_native_vec_env() -> None:
     venv = make_vec_env("panda_rapier/PickAndPlaceDense-v0", n_envs=4, seed=0)
     model = PPO(
         "MultiInputPolicy", venv, n_steps=512, batch_size=256, n_epochs=2, seed=0, device="cpu"
@@ -104,7 +104,7 @@ def test_ppo_learns_on_the_native_vec_env() -> None:
 
 
 @pytest.mark.parametrize("vectorised", [False, True])
-def test_sac_with_her_learns_on_the_goal_env(vectorised: bool) -> None:
+def test_sac_with_her_trains_on_the_goal_env(vectorised: bool) -> None:
     if vectorised:
         env = make_vec_env("panda_rapier/PickAndPlaceDense-v0", n_envs=2, seed=0)
     else:

@@ -191,8 +191,10 @@ def _parser() -> argparse.ArgumentParser:
         "max_episode_steps=80 (values are JSON; bare words are taken as strings)",
     )
     train.add_argument(
-        "--eval-every", type=_non_negative, default=250_000, help="env steps between "
-        "evaluations (0: none; bc evaluates after each round)"
+        "--eval-every",
+        type=_non_negative,
+        default=250_000,
+        help="env steps between evaluations (0: none; bc evaluates after each round)",
     )
     train.add_argument("--eval-episodes", type=_positive, default=100)
     train.add_argument(
@@ -203,8 +205,10 @@ def _parser() -> argparse.ArgumentParser:
         "--threads", type=_positive, default=None, help="environment threads (default: all)"
     )
     train.add_argument(
-        "--torch-threads", type=_positive, default=1, help="torch threads (default 1: more "
-        "fight the environment's threads for the cores)"
+        "--torch-threads",
+        type=_positive,
+        default=1,
+        help="torch threads (default 1: more fight the environment's threads for the cores)",
     )
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.set_defaults(run=_run_train)

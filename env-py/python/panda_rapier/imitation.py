@@ -217,12 +217,14 @@ def behaviour_cloning(
     epochs: int,
     batch_size: int = 256,
     learning_rate: float = 1e-3,
+    final_lr_fraction: float = 0.05,
     seed: int = 0,
     progress: Callable[[int, float], None] | None = None,
 ) -> list[float]:
     """Fits the mean action of ``model``'s policy (an SB3 actor-critic, e.g. PPO's
     ``MultiInputPolicy``) to the expert's actions in ``demos`` by mean squared error, with Adam,
-    for ``epochs`` passes over the data in shuffled mini-batches. The observation normaliser
+    for ``epochs`` passes over the data in shuffled mini-batches, the learning rate falling
+    linearly to ``final_lr_fraction`` of ``learning_rate``. The observation normaliser
     (:class:`NormalizedFlatten`) must already be fitted. Returns the mean loss of each epoch;
     ``progress(epoch, loss)`` is called after each."""
     import torch as th
@@ -238,6 +240,10 @@ def behaviour_cloning(
     optimizer = th.optim.Adam(parameters, lr=learning_rate)
     losses = []
     n = len(demos)
+    batches = epochs * ((n + batch_size - 1) // batch_size)
+    schedule = th.optim.lr_scheduler.LinearLR(
+        optimizer, 1.0, final_lr_fraction, total_iters=max(1, batches - 1)
+    )
     for epoch in range(epochs):
         order = th.as_tensor(generator.permutation(n))
         total = 0.0
@@ -249,6 +255,7 @@ def behaviour_cloning(
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
+            schedule.step()
             total += float(loss.detach()) * len(index)
         losses.append(total / n)
         if progress is not None:
@@ -267,20 +274,22 @@ def dagger(
     epochs: int,
     epochs_per_round: int,
     first_seed: int,
+    final_epochs: int = 0,
     batch_size: int = 256,
     learning_rate: float = 1e-3,
     num_envs: int = 32,
     num_threads: int | None = None,
-    on_round: Callable[[int, Demonstrations, RolloutStats | None, list[float]], None]
-    | None = None,
+    on_round: Callable[[int, Demonstrations, RolloutStats | None, list[float]], None] | None = None,
     progress: Callable[[str, int, int], None] | None = None,
 ) -> Demonstrations:
     """Behaviour cloning from ``demo_episodes`` expert episodes, then ``rounds`` of DAgger, each
     driving ``episodes_per_round`` episodes with the learner, labelling them with the expert and
-    refitting on everything gathered. Episode seeds count up from ``first_seed`` without
-    repeats. The normaliser is fitted to the expert's states. ``on_round(r, data, stats,
-    losses)`` is called after each fit (``stats``: how the learner drove in round ``r``,
-    ``None`` for round 0, the expert's demonstrations). Returns all the data gathered."""
+    refitting on everything gathered, and finally ``final_epochs`` more passes over all of it
+    (a last fit whose learning rate decays over more steps). Episode seeds count up from
+    ``first_seed`` without repeats. The normaliser is fitted to the expert's states.
+    ``on_round(r, data, stats, losses)`` is called after each fit (``stats``: how the learner
+    drove in round ``r``; ``None`` for round 0, the expert's demonstrations, and for the final
+    fit). Returns all the data gathered."""
     from .normalization import fit_normalizers
 
     seed = first_seed
@@ -327,4 +336,15 @@ def dagger(
         )
         if on_round is not None:
             on_round(r, data, stats, losses)
+    if final_epochs > 0:
+        losses = behaviour_cloning(
+            model,
+            data,
+            epochs=final_epochs,
+            batch_size=batch_size,
+            learning_rate=learning_rate,
+            seed=rounds + 1,
+        )
+        if on_round is not None:
+            on_round(rounds + 1, data, None, losses)
     return data

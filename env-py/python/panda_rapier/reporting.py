@@ -39,9 +39,7 @@ def run_label(run: dict[str, Any]) -> str:
     return f"{run.get('algo', '?')} {env} ({arm} arm{', ' + extra if extra else ''})"
 
 
-def plot_curves(
-    runs: Sequence[Path], out: Path, reference: Path | None = None
-) -> None:
+def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) -> None:
     """Success (solid, with its 95 % interval) and placed (dashed) rate of each run's periodic
     evaluations, against env steps and against wall-clock minutes of training. ``reference``:
     a JSON list of ``{"label", "env_steps_per_s"}`` (another recipe's measured training

@@ -13,7 +13,9 @@ and writes everything to its output directory:
   with its 95 % interval, placed rate, mean return) on validation seeds, which neither the
   training episodes nor the final test seeds (``panda-rapier eval``'s default, 0 to 999) use;
 - ``tensorboard/`` (``tensorboard --logdir DIR``) and ``checkpoints/latest.zip`` with
-  ``checkpoints/state.json`` for ``--resume``.
+  ``checkpoints/state.json`` for ``--resume``;
+- for ``bc``: ``demonstrations.npz``, every state gathered with the expert's action in it
+  (:meth:`panda_rapier.imitation.Demonstrations.load`).
 
 Hyperparameters come from a recipe file in rl-zoo3's YAML format (one entry per env id; the
 package's own in ``panda_rapier/hyperparams/ALGO.yml``), so ``python -m rl_zoo3.train --algo
@@ -37,8 +39,6 @@ from collections.abc import Callable, Mapping
 from importlib import resources
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from . import __version__
 from .errors import ConfigError, InvalidArgumentError
@@ -74,6 +74,7 @@ _BC_KEYS = {
     "dagger_episodes": 250,
     "epochs": 30,
     "dagger_epochs": 10,
+    "final_epochs": 20,
     "batch_size": 256,
     "learning_rate": 1e-3,
 }
@@ -154,7 +155,7 @@ def _callbacks(spec: Any) -> list[Any]:
     items = spec if isinstance(spec, list) else [spec] if spec else []
     built = []
     for item in items:
-        path, kwargs = (next(iter(item.items())) if isinstance(item, Mapping) else (item, {}))
+        path, kwargs = next(iter(item.items())) if isinstance(item, Mapping) else (item, {})
         module, _, name = str(path).rpartition(".")
         try:
             built.append(getattr(importlib.import_module(module), name)(**(kwargs or {})))
@@ -419,7 +420,13 @@ def train(
         model = algorithm.load(out / "checkpoints" / "latest.zip", env=env, device="cpu")
         buffer = out / "checkpoints" / "replay_buffer.pkl"
         if hasattr(model, "load_replay_buffer") and buffer.is_file():
-            model.load_replay_buffer(buffer)
+            import warnings
+
+            # The environments restart with fresh episodes on resume, so the episode that was
+            # running at the checkpoint is truncated: what HER's warning recommends here.
+            with warnings.catch_warnings():
+                warnings.filterwarnings("ignore", "The last trajectory in the replay buffer")
+                model.load_replay_buffer(buffer, truncate_last_traj=True)
         say(f"resuming {out} at {model.num_timesteps:,} steps")
     else:
         model = algorithm(
@@ -450,7 +457,8 @@ def train(
         )
     run["env_steps"] = int(model.num_timesteps)
     run["wall_time_s"] = round(recorder.wall_time(), 3)
-    if eval_every:
+    last = run.get("last_evaluation") or {}
+    if eval_every and last.get("env_steps") != int(model.num_timesteps):
         recorder.evaluate(model, int(model.num_timesteps))
     save_model(model, out / "model.zip", run)
     (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
@@ -488,9 +496,7 @@ def _train_bc(
     if isinstance(policy_kwargs, str):
         policy_kwargs = _evaluate_expression(policy_kwargs)
     env = make_vec_env(run["env_id"], n_envs=1, **run["env_kwargs"])
-    model = PPO(
-        recipe["policy"], env, policy_kwargs=policy_kwargs, seed=run["seed"], device="cpu"
-    )
+    model = PPO(recipe["policy"], env, policy_kwargs=policy_kwargs, seed=run["seed"], device="cpu")
     recorder = _Recorder(out, config, run, eval_episodes, num_threads, 0.0, say)
     (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
     env_steps = 0
@@ -506,12 +512,14 @@ def _train_bc(
 
     def on_round(r: int, data: Any, stats: Any, losses: list[float]) -> None:
         nonlocal env_steps
-        env_steps = int(len(data))
-        drove = (
-            "expert demonstrations"
-            if stats is None
-            else f"learner drove: success {stats.success_rate:.3f}, placed {stats.placed_rate:.3f}"
-        )
+        env_steps = len(data)
+        if r == 0:
+            drove = "expert demonstrations"
+        elif stats is None:
+            drove = "final fit"
+        else:
+            drove = f"learner drove: success {stats.success_rate:.3f}"
+            drove += f", placed {stats.placed_rate:.3f}"
         say(f"round {r}: {len(data):,} labelled states ({drove}); loss {losses[-1]:.4f}")
         recorder.evaluate(model, env_steps)
 
@@ -523,6 +531,7 @@ def _train_bc(
         episodes_per_round=int(recipe["dagger_episodes"]),
         epochs=int(recipe["epochs"]),
         epochs_per_round=int(recipe["dagger_epochs"]),
+        final_epochs=int(recipe["final_epochs"]),
         first_seed=run["train_first_seed"],
         batch_size=int(recipe["batch_size"]),
         learning_rate=float(recipe["learning_rate"]),
@@ -531,9 +540,10 @@ def _train_bc(
         on_round=on_round,
         progress=progress,
     )
-    run["env_steps"] = int(len(data))
+    run["env_steps"] = len(data)
     run["demonstration_episodes"] = data.num_episodes
     run["wall_time_s"] = round(recorder.wall_time(), 3)
+    data.save(out / "demonstrations.npz")
     save_model(model, out / "model.zip", run)
     (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
     return run
