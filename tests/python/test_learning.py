@@ -196,7 +196,8 @@ def test_train_ppo_checkpoints_and_resumes(tmp_path: Path) -> None:
     resumed = PPO.load(out / "model.zip", device="cpu")
     assert resumed.num_timesteps == 1024
     np.testing.assert_array_equal(resumed.policy.features_extractor.scale.numpy(), scale)
-    steps = [json.loads(x)["env_steps"] for x in (out / "evaluations.jsonl").read_text().splitlines()]
+    lines = (out / "evaluations.jsonl").read_text().splitlines()
+    steps = [json.loads(x)["env_steps"] for x in lines]
     assert steps == [256, 512, 768, 1024]  # each once, the resumed run's appended
     assert list((out / "tensorboard").rglob("events.out.tfevents.*"))
     assert (out / "best.zip").is_file()
@@ -244,6 +245,8 @@ def test_curves_and_models_table(tmp_path: Path) -> None:
     assert main(["models-table", str(models), "--episodes", "3", "--quiet"]) == 0
     table = (models / "README.md").read_text()
     assert "| `tiny.zip` | bc | `panda_rapier/PickAndPlace-v0` |" in table
+    records = json.loads((models / "evaluations.json").read_text())["tiny.zip"]
+    assert len(records["success_by_episode"]) == 3 and records["episodes"] == 3
     assert "panda-rapier train --algo bc" in table
 
 
@@ -262,3 +265,34 @@ def test_train_tqc_with_her_saves_its_replay_buffer_and_resumes(tmp_path: Path) 
     assert (out / "checkpoints" / "replay_buffer.pkl").is_file()
     assert main([*common, "--timesteps", "400", "--resume"]) == 0
     assert json.loads((out / "run.json").read_text())["env_steps"] == 400
+
+
+MODELS = Path(__file__).resolve().parents[2] / "models"
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in MODELS.glob("*.zip")))
+def test_shipped_model_reproduces_its_recorded_evaluation(name: str) -> None:
+    """Each model in models/ is evaluated (as `panda-rapier eval --policy models/NAME.zip`
+    does: the environment recorded in the zip, 32 environments, seeds from 0) on its first
+    96 episodes (three full batches, so every batch is the one the recorded run had); each
+    episode's success and placement must match models/evaluations.json, which
+    `panda-rapier models-table models` wrote together with the README's table. Bit-identical
+    on the machine that wrote it; two episodes of slack for another CPU's float rounding."""
+    from panda_rapier.evaluation import load_sb3_model
+
+    recorded = json.loads((MODELS / "evaluations.json").read_text())[name]
+    run = read_run_info(MODELS / name)
+    assert run is not None
+    config = env_config(run["env_id"], **run["env_kwargs"])
+    model = load_sb3_model(MODELS / name)
+    report = evaluate(model, config, 96, num_envs=32, first_seed=0)
+    success = "".join("1" if e.success else "0" for e in report.episodes)
+    placed = "".join("1" if e.placed else "0" for e in report.episodes)
+    mismatches = sum(a != b for a, b in zip(success, recorded["success_by_episode"], strict=False))
+    mismatches += sum(a != b for a, b in zip(placed, recorded["placed_by_episode"], strict=False))
+    assert mismatches <= 2, (success, recorded["success_by_episode"][:96])
+    # The README row is the recorded evaluation's.
+    low, high = recorded["success_ci95"]
+    rate, placed_rate = recorded["success_rate"], recorded["placed_rate"]
+    row = f"| {rate:.3f} ({low:.3f}-{high:.3f}) | {placed_rate:.3f} |"
+    assert row in (MODELS / "README.md").read_text()

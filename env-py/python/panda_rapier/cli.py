@@ -232,7 +232,8 @@ def _parser() -> argparse.ArgumentParser:
 
     table = commands.add_parser(
         "models-table",
-        help="evaluate every model in a folder and write its README table",
+        help="evaluate every model in a folder and write its README table (and "
+        "evaluations.json, every episode's outcome)",
         description="Evaluates each MODEL.zip in FOLDER with `panda-rapier eval`'s defaults "
         "(1000 episodes, seeds 0..999, the environment recorded in the model) and writes a "
         "markdown table of algorithm, env id and options, env steps, wall time, success rate "
@@ -307,10 +308,12 @@ def _run_models_table(args: argparse.Namespace) -> int:
     from .reporting import models_table
 
     out = args.out or args.folder / "README.md"
-    text = models_table(args.folder, episodes=args.episodes, progress=not args.quiet)
+    text, records = models_table(args.folder, episodes=args.episodes, progress=not args.quiet)
     out.write_text(text)
+    evaluations = out.parent / "evaluations.json"
+    evaluations.write_text(json.dumps(records, indent=1, sort_keys=True) + "\n")
     print(text)
-    print(f"table written to {out}")
+    print(f"table written to {out}, every episode's outcome to {evaluations}")
     return 0
 
 

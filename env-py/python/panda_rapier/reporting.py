@@ -108,20 +108,31 @@ def _evaluate_file(model: Path, episodes: int, quiet: bool) -> dict[str, Any]:
         return dict(json.loads(report.read_text()))
 
 
-def models_table(folder: Path, episodes: int = 1000, progress: bool = True) -> str:
+def models_table(
+    folder: Path, episodes: int = 1000, progress: bool = True
+) -> tuple[str, dict[str, Any]]:
     """Evaluates every ``*.zip`` in ``folder`` with ``panda-rapier eval --policy MODEL.zip``
     (seeds ``0 .. episodes - 1``, which no training run uses) and returns the markdown of
-    ``folder``'s README: one row per model."""
+    ``folder``'s README (one row per model) and the evaluations (per model: the summary and
+    each episode's success and placed flags as strings of 0 and 1)."""
     models = sorted(Path(folder).glob("*.zip"))
     if not models:
         raise InvalidArgumentError(f"no .zip models in {folder}")
     rows = []
     commands = []
+    records: dict[str, Any] = {}
     for model in models:
         run = read_run_info(model)
         if run is None:
             raise InvalidArgumentError(f"{model} has no run record: was it made by train?")
         summary = _evaluate_file(model, episodes, quiet=not progress)
+        episodes_run = summary.pop("episode_records")
+        summary.pop("failed_episodes", None)
+        records[model.name] = {
+            **summary,
+            "success_by_episode": "".join("1" if e["success"] else "0" for e in episodes_run),
+            "placed_by_episode": "".join("1" if e["placed"] else "0" for e in episodes_run),
+        }
         low, high = summary["success_ci95"]
         options = json.dumps(run.get("env_kwargs") or {}, sort_keys=True)
         rows.append(
@@ -147,7 +158,8 @@ def models_table(folder: Path, episodes: int = 1000, progress: bool = True) -> s
         "| model | algorithm | env id | options | env steps | wall time (min) "
         "| success (95 % CI) | placed |\n|---|---|---|---|---|---|---|---|\n"
     )
-    return header + "\n".join(rows) + "\n\n## Reproduce\n\n" + "\n".join(commands) + "\n"
+    text = header + "\n".join(rows) + "\n\n## Reproduce\n\n" + "\n".join(commands) + "\n"
+    return text, records
 
 
 def _out_of(command: Sequence[str]) -> str:
