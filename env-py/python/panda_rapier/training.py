@@ -24,8 +24,9 @@ cloning and DAgger from the scripted expert, :mod:`panda_rapier.imitation`) is o
 recipe has its own keys and it saves a PPO model.
 
 Seeds: the training environments and the expert's demonstrations are seeded from
-``TRAIN_FIRST_SEED + 1_000_000 * seed``, periodic evaluations use ``VALIDATION_FIRST_SEED``
-onwards, and the final test (``panda-rapier eval``) seeds ``0, 1, ...``.
+``TRAIN_FIRST_SEED + 1_000_000 * seed`` (a resumed run's environments from that plus the
+steps already done), periodic evaluations use ``VALIDATION_FIRST_SEED`` onwards, and the
+final test (``panda-rapier eval``) seeds ``0, 1, ...``.
 """
 
 from __future__ import annotations
@@ -400,6 +401,11 @@ def train(
         "machine": {"cpus": _cpu_count(), "platform": platform.platform()},
     }
     if algo == "bc":
+        if resume or timesteps is not None:
+            raise InvalidArgumentError(
+                "bc runs are short and are not resumed; their length is the recipe's "
+                "demo_episodes and dagger_rounds, not --timesteps"
+            )
         return _train_bc(run, recipe, config, out, n_envs, num_threads, eval_episodes, say)
 
     from .sb3 import make_vec_env
@@ -407,7 +413,6 @@ def train(
     total = int(timesteps if timesteps is not None else recipe.get("n_timesteps", 1_000_000))
     n = int(n_envs if n_envs is not None else recipe.get("n_envs", 1))
     run.update(n_envs=n, n_timesteps=total)
-    env = make_vec_env(env_id, n_envs=n, seed=train_seed, num_threads=num_threads, **options)
     algorithm = _algorithm_class(algo)
     state = {
         "next_eval": eval_every or 0,
@@ -417,6 +422,10 @@ def train(
     }
     if resume:
         state.update(json.loads(state_file.read_text()))
+    # A resumed run's environments start from seeds its first part never used.
+    env_seed = train_seed + int(state["num_timesteps"])
+    env = make_vec_env(env_id, n_envs=n, seed=env_seed, num_threads=num_threads, **options)
+    if resume:
         model = algorithm.load(out / "checkpoints" / "latest.zip", env=env, device="cpu")
         buffer = out / "checkpoints" / "replay_buffer.pkl"
         if hasattr(model, "load_replay_buffer") and buffer.is_file():
