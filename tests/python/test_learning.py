@@ -296,3 +296,16 @@ def test_shipped_model_reproduces_its_recorded_evaluation(name: str) -> None:
     rate, placed_rate = recorded["success_rate"], recorded["placed_rate"]
     row = f"| {rate:.3f} ({low:.3f}-{high:.3f}) | {placed_rate:.3f} |"
     assert row in (MODELS / "README.md").read_text()
+
+
+def test_fit_normalizer_callback_on_gym_make_envs() -> None:
+    """rl-zoo3 trains on DummyVecEnv(gym.make(...)), whose environments leave the time limit
+    to Gymnasium's TimeLimit; the recipe's callback still fits the normaliser there."""
+    from stable_baselines3.common.env_util import make_vec_env as sb3_make_vec_env
+
+    from panda_rapier.normalization import FitNormalizerCallback
+
+    env = sb3_make_vec_env("panda_rapier/PickAndPlaceDense-v0", n_envs=2, seed=0)
+    model = _ppo(env, n_steps=16, batch_size=32)
+    model.learn(32, callback=FitNormalizerCallback(episodes=2))
+    assert (model.policy.features_extractor.scale.numpy() != 1).any()

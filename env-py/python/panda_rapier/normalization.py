@@ -103,10 +103,20 @@ def expert_statistics(
 
 
 def _config_of_vec_env(env: Any) -> dict[str, Any]:
+    """The configuration of a VecEnv's first environment, with a time limit: environments
+    made by ``gym.make`` (rl-zoo3's) leave it to Gymnasium's ``TimeLimit`` (``None`` in
+    their own configuration)."""
+    from .registration import MAX_EPISODE_STEPS
+
     config = env.get_attr("config", [0])[0]
     if not isinstance(config, Mapping):  # pragma: no cover - a non-panda_rapier env
         raise TypeError("FitNormalizerCallback needs a panda_rapier environment")
-    return dict(config)
+    config = dict(config)
+    if config.get("max_episode_steps") is None:
+        spec = env.get_attr("spec", [0])[0]
+        limit = getattr(spec, "max_episode_steps", None)
+        config["max_episode_steps"] = int(limit) if limit else MAX_EPISODE_STEPS
+    return config
 
 
 class FitNormalizerCallback(BaseCallback):
