@@ -157,9 +157,10 @@ def test_train_bc_writes_a_run_that_eval_reads_without_flags(
     assert {"panda_rapier", "torch", "stable_baselines3"} <= set(run["versions"])
     assert run["command"][:3] == ["panda-rapier", "train", "--algo"]
     lines = [json.loads(x) for x in (out / "evaluations.jsonl").read_text().splitlines()]
-    assert [x["env_steps"] for x in lines] == [8 * 60, 16 * 60]
+    assert [x["env_steps"] for x in lines] == [8 * 60, 16 * 60, 16 * 60]  # and the final fit
     assert all(0 <= x["success_ci95"][0] <= x["success_rate"] <= x["success_ci95"][1]
                for x in lines)  # fmt: skip
+    assert list((out / "tensorboard").rglob("events.out.tfevents.*"))
     with zipfile.ZipFile(out / "model.zip") as archive:
         assert RUN_MEMBER in archive.namelist()
     assert read_run_info(out / "model.zip")["env_kwargs"]["arm"] == "kinematic"

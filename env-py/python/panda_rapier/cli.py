@@ -279,7 +279,7 @@ def _run_train(args: argparse.Namespace) -> int:
         resume=args.resume,
         torch_threads=args.torch_threads,
         progress=not args.quiet,
-        command=["panda-rapier", *sys.argv[1:]],
+        command=["panda-rapier", *args.argv],
     )
     minutes = run["wall_time_s"] / 60
     print(
@@ -479,6 +479,7 @@ def _run_eval(args: argparse.Namespace) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``panda-rapier`` console script."""
     args = _parser().parse_args(argv)
+    args.argv = list(argv) if argv is not None else sys.argv[1:]
     try:
         return int(args.run(args))
     except (PandaRapierError, ImportError, ValueError, OSError) as error:

@@ -506,6 +506,9 @@ def _train_bc(
         policy_kwargs = _evaluate_expression(policy_kwargs)
     env = make_vec_env(run["env_id"], n_envs=1, **run["env_kwargs"])
     model = PPO(recipe["policy"], env, policy_kwargs=policy_kwargs, seed=run["seed"], device="cpu")
+    from stable_baselines3.common.logger import configure
+
+    logger = configure(str(out / "tensorboard" / "bc_1"), ["tensorboard"])
     recorder = _Recorder(out, config, run, eval_episodes, num_threads, 0.0, say)
     (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
     env_steps = 0
@@ -530,7 +533,13 @@ def _train_bc(
             drove = f"learner drove: success {stats.success_rate:.3f}"
             drove += f", placed {stats.placed_rate:.3f}"
         say(f"round {r}: {len(data):,} labelled states ({drove}); loss {losses[-1]:.4f}")
-        recorder.evaluate(model, env_steps)
+        logger.record("bc/loss", losses[-1])
+        logger.record("bc/labelled_states", len(data))
+        if stats is not None:
+            logger.record("rollout/success_rate", stats.success_rate)
+            logger.record("rollout/placed_rate", stats.placed_rate)
+        recorder.evaluate(model, env_steps, logger)
+        logger.dump(env_steps)
 
     data = dagger(
         model,
