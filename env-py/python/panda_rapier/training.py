@@ -295,7 +295,9 @@ class _Recorder:
         key = (line["placed_rate"], line["success_rate"])
         if self.best is None or key > self.best:
             self.best = key
-            save_model(model, self.out / "best.zip", {**self.run, "evaluation": line})
+            best = {**self.run, "evaluation": line}
+            best.update(env_steps=line["env_steps"], wall_time_s=line["wall_time_s"])
+            save_model(model, self.out / "best.zip", best)
         self.run["last_evaluation"] = line
         return line
 
