@@ -253,6 +253,7 @@ class _Recorder:
         for line in _read_lines(out / "evaluations.jsonl"):
             key = (line["placed_rate"], line["success_rate"])
             self.best = key if self.best is None or key > self.best else self.best
+            run["last_evaluation"] = line  # a resumed run knows where it stopped
 
     def wall_time(self) -> float:
         return self.wall_offset + time.perf_counter() - self.started - self.eval_time
@@ -324,9 +325,9 @@ def _sb3_callback(
                 while state["next_eval"] <= steps:
                     state["next_eval"] += eval_every
             if checkpoint_every and steps >= state["next_checkpoint"]:
-                self.save_checkpoint()
                 while state["next_checkpoint"] <= steps:
                     state["next_checkpoint"] += checkpoint_every
+                self.save_checkpoint()
             return True
 
         def save_checkpoint(self) -> None:
@@ -402,6 +403,9 @@ def train(
         "versions": versions(),
         "machine": {"cpus": _cpu_count(), "platform": platform.platform()},
     }
+    if resume:
+        run["command"] = previous.get("command", run["command"])
+        run["resumed_with"] = [*previous.get("resumed_with", []), command or sys.argv]
     if algo == "bc":
         if resume or timesteps is not None:
             raise InvalidArgumentError(
