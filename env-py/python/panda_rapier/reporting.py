@@ -144,6 +144,7 @@ def models_table(
         commands.append(
             f"- `{model.name}`: `{shlex.join(run['command'])}`, then copy "
             f"`{_out_of(run['command'])}/model.zip` here as `{model.name}`"
+            + (f" ({run['note']})" if run.get("note") else "")
         )
     header = (
         "# Trained policies\n\n"
