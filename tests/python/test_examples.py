@@ -43,7 +43,7 @@ def test_readme_python_example_runs(index: int, tmp_path: Path) -> None:
 
 def test_her_throughput_script_measures_the_recipe(tmp_path: Path) -> None:
     out = tmp_path / "her.json"
-    text = run(ROOT / "examples/her_throughput.py", "--steps", "3", "--learning-starts", "64",
+    text = run(ROOT / "examples/her_throughput.py", "--steps", "3", "--learning-starts", "80",
                "--no-panda-gym", "--json", out)  # fmt: skip
     (item,) = json.loads(out.read_text())
     assert item["label"].startswith("panda_rapier") and item["env_steps_per_s"] > 0
