@@ -20,12 +20,11 @@ from pathlib import Path
 import gymnasium as gym
 import torch
 from sb3_contrib import TQC
-from stable_baselines3 import HerReplayBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from tqdm import tqdm
 
 import panda_rapier  # noqa: F401  (registers the ids)
-from panda_rapier.training import load_recipe
+from panda_rapier.training import load_recipe, model_kwargs
 
 
 class Timer(BaseCallback):
@@ -46,21 +45,8 @@ class Timer(BaseCallback):
 
 def measure(label: str, env: gym.Env, steps: int, learning_starts: int) -> dict[str, float | str]:
     recipe = load_recipe("tqc", "panda_rapier/PickAndPlace-v0")
-    model = TQC(
-        "MultiInputPolicy",
-        env,
-        replay_buffer_class=HerReplayBuffer,
-        replay_buffer_kwargs={"goal_selection_strategy": "future", "n_sampled_goal": 4},
-        policy_kwargs={"net_arch": [512, 512, 512], "n_critics": 2},
-        buffer_size=int(recipe["buffer_size"]),
-        batch_size=int(recipe["batch_size"]),
-        gamma=float(recipe["gamma"]),
-        learning_rate=float(recipe["learning_rate"]),
-        tau=float(recipe["tau"]),
-        learning_starts=learning_starts,
-        seed=0,
-        device="cpu",
-    )
+    kwargs = {**model_kwargs("tqc", recipe), "learning_starts": learning_starts}
+    model = TQC(recipe["policy"], env, seed=0, device="cpu", **kwargs)
     with tqdm(total=learning_starts + steps, desc=label, unit="step") as bar:
         timer = Timer(learning_starts, bar)
         model.learn(learning_starts + steps, callback=timer)

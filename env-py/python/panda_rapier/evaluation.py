@@ -217,6 +217,9 @@ def load_sb3_model(path: str | Path, env: Any = None, algo: str | None = None) -
 
 
 Actor = Callable[[np.ndarray], np.ndarray]
+#: Called by :func:`evaluate` before every step with the flat observations, the actions about
+#: to be taken and, per environment, the episode it runs (``None`` once it has no more).
+StepHook = Callable[[np.ndarray, np.ndarray, list[int | None]], None]
 
 
 def _actor(policy: Any) -> tuple[Actor, str]:
@@ -226,9 +229,11 @@ def _actor(policy: Any) -> tuple[Actor, str]:
         return native.act, "scripted"
     predict = getattr(policy, "predict", None)
     if not callable(predict):
+        if callable(policy):  # already a function of flat observation rows
+            return policy, getattr(policy, "__name__", type(policy).__name__)
         raise InvalidArgumentError(
-            f"policy must have an SB3-style predict(obs, deterministic=True), got "
-            f"{type(policy).__name__}"
+            f"policy must have an SB3-style predict(obs, deterministic=True) or be a function "
+            f"of flat observation rows, got {type(policy).__name__}"
         )
 
     def act(flat: np.ndarray) -> np.ndarray:
@@ -248,10 +253,13 @@ def evaluate(
     num_threads: int | None = None,
     progress: Callable[[int], None] | None = None,
     recorder: VideoRecorder | None = None,
+    on_step: StepHook | None = None,
 ) -> EvaluationReport:
     """Runs ``episodes`` seeded episodes of the environment ``config`` (its
-    ``max_episode_steps`` must be set) with ``policy`` (a :class:`ScriptedPolicy` or anything
-    with an SB3-style ``predict`` taking dict observations) on ``num_envs`` environments;
+    ``max_episode_steps`` must be set) with ``policy`` (a :class:`ScriptedPolicy`, anything
+    with an SB3-style ``predict`` taking dict observations, or a function from flat observation
+    rows to action rows) on ``num_envs`` environments; ``on_step`` (a :data:`StepHook`) sees
+    every step before it is taken;
     ``progress`` is called with the number of finished episodes after every step that ends
     some. ``recorder`` (a :class:`~panda_rapier.video.VideoRecorder`) gets every frame of the
     episodes environment 0 runs (episodes ``0, num_envs, 2 num_envs, ...``): the first state
@@ -284,6 +292,8 @@ def evaluate(
     env_steps = 0
     while len(records) < episodes:
         actions = np.ascontiguousarray(act(observations), dtype=np.float32)
+        if on_step is not None:
+            on_step(observations, actions, running)
         observations, rewards, terminated, truncated = envs.step(actions)
         env_steps += num_envs
         if recorder is not None and running[0] is not None:

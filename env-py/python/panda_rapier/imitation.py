@@ -22,7 +22,6 @@ Needs the ``train`` extra (stable-baselines3 and torch).
 from __future__ import annotations
 
 import json
-import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,13 +30,10 @@ from typing import Any
 import numpy as np
 
 from . import _common
-from ._native import NativeVecEnv
 from .errors import InvalidArgumentError
 from .policy import ScriptedPolicy
 
 __all__ = ["Demonstrations", "RolloutStats", "behaviour_cloning", "collect", "dagger"]
-
-Actor = Callable[[np.ndarray], np.ndarray]
 
 
 @dataclass
@@ -119,95 +115,57 @@ def collect(
     episodes: int,
     *,
     first_seed: int,
-    actor: Actor | None = None,
+    actor: Any = None,
     num_envs: int = 32,
     num_threads: int | None = None,
     progress: Callable[[int], None] | None = None,
 ) -> tuple[Demonstrations, RolloutStats]:
     """Runs ``episodes`` seeded episodes (episode ``k`` reset with seed ``first_seed + k``) of
-    the environment ``config``, driven by ``actor`` (flat observation rows to action rows;
-    ``None``: the scripted expert), and records every state visited with the expert's action
-    in it. Returns the dataset and how the driving policy did."""
-    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
-        raise InvalidArgumentError(f"episodes must be an int >= 1, got {episodes!r}")
-    config = dict(config)
-    if config.get("max_episode_steps", 0) is None:
-        raise InvalidArgumentError("collecting needs a time limit: max_episode_steps is None")
+    the environment ``config``, driven by ``actor`` (anything :func:`~.evaluation.evaluate`
+    takes: an SB3 model, or a function from flat observation rows to action rows; ``None``: the
+    scripted expert), and records every state visited with the expert's action in it. Returns
+    the dataset and how the driving policy did."""
+    from .evaluation import evaluate
+
     expert = ScriptedPolicy(config)._native
-    drive = expert.act if actor is None else actor
-    num_envs = min(num_envs, episodes)
-    envs = NativeVecEnv(_common.config_json(config), num_envs, num_threads, "next_step")
-    full_config = json.loads(envs.config_json())
-    started = time.perf_counter()
-    observations = envs.reset([first_seed + i for i in range(num_envs)])
-    running: list[int | None] = list(range(num_envs))
-    next_episode = num_envs
-    placed = np.zeros(num_envs, dtype=bool)
     rows_obs: list[np.ndarray] = []
     rows_act: list[np.ndarray] = []
     rows_episode: list[np.ndarray] = []
-    success_by_episode: dict[int, bool] = {}
-    placed_by_episode: dict[int, bool] = {}
-    env_steps = 0
-    while len(success_by_episode) < episodes:
+
+    def record(observations: np.ndarray, actions: np.ndarray, running: list[int | None]) -> None:
         active = np.array([r is not None for r in running])
-        labels = expert.act(observations)
-        actions = labels if actor is None else np.asarray(drive(observations), dtype=np.float32)
+        labels = actions if actor is None else expert.act(observations)
         rows_obs.append(observations[active].copy())
         rows_act.append(labels[active].copy())
         rows_episode.append(np.array([r for r in running if r is not None], dtype=np.int64))
-        observations, _, terminated, truncated = envs.step(
-            np.ascontiguousarray(actions, dtype=np.float32)
-        )
-        env_steps += int(active.sum())
-        info = envs.infos("step")
-        placed |= info["is_placed"]
-        ended = terminated | truncated
-        if not ended.any():
-            continue
-        seeds: list[int | None] = [None] * num_envs
-        for i in np.flatnonzero(ended):
-            episode = running[i]
-            if episode is not None:
-                success_by_episode[episode] = bool(info["is_success"][i])
-                placed_by_episode[episode] = bool(placed[i])
-            if next_episode < episodes:
-                running[i], next_episode = next_episode, next_episode + 1
-            else:
-                running[i] = None
-            seeds[i] = first_seed + running[i] if running[i] is not None else None
-            placed[i] = False
-        observations = envs.reset(seeds, ended)
-        if progress is not None:
-            progress(len(success_by_episode))
-    order = range(episodes)
+
+    report = evaluate(
+        expert.act if actor is None else actor,
+        config,
+        episodes,
+        num_envs=num_envs,
+        first_seed=first_seed,
+        num_threads=num_threads,
+        progress=progress,
+        on_step=record,
+    )
     demos = Demonstrations(
-        config=full_config,
+        config=report.config,
         observations=np.concatenate(rows_obs),
         actions=np.concatenate(rows_act),
         episode_index=np.concatenate(rows_episode),
-        episode_seeds=[first_seed + k for k in order],
-        episode_success=[success_by_episode[k] for k in order],
-        episode_placed=[placed_by_episode[k] for k in order],
+        episode_seeds=[e.seed for e in report.episodes],
+        episode_success=[e.success for e in report.episodes],
+        episode_placed=[e.placed for e in report.episodes],
     )
     stats = RolloutStats(
         episodes=episodes,
-        env_steps=env_steps,
-        success_rate=float(np.mean(demos.episode_success)),
-        placed_rate=float(np.mean(demos.episode_placed)),
-        wall_time_s=time.perf_counter() - started,
+        env_steps=len(demos),
+        success_rate=report.success_rate,
+        placed_rate=report.placed_rate,
+        wall_time_s=report.wall_time_s,
     )
     return demos, stats
-
-
-def policy_actor(model: Any) -> Actor:
-    """Flat observation rows to the model's deterministic actions (clipped to the space)."""
-
-    def act(flat: np.ndarray) -> np.ndarray:
-        actions, _ = model.predict(_common.split_observation(flat), deterministic=True)
-        return np.asarray(actions, dtype=np.float32).reshape(flat.shape[0], -1)
-
-    return act
 
 
 def behaviour_cloning(
@@ -319,7 +277,7 @@ def dagger(
             config,
             episodes_per_round,
             first_seed=seed,
-            actor=policy_actor(model),
+            actor=model,
             num_envs=num_envs,
             num_threads=num_threads,
             progress=tick(f"dagger round {r}", episodes_per_round),

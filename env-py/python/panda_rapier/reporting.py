@@ -164,8 +164,8 @@ def models_table(
 
 
 def _out_of(command: Sequence[str]) -> str:
+    """The ``--out`` directory of a recorded ``panda-rapier train`` command."""
     parts = list(command)
-    for flag in ("--out",):
-        if flag in parts and parts.index(flag) + 1 < len(parts):
-            return parts[parts.index(flag) + 1]
+    if "--out" in parts[:-1]:
+        return parts[parts.index("--out") + 1]
     return "OUT"

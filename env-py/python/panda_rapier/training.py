@@ -50,6 +50,7 @@ __all__ = [
     "TRAIN_FIRST_SEED",
     "VALIDATION_FIRST_SEED",
     "load_recipe",
+    "model_kwargs",
     "read_run_info",
     "train",
 ]
@@ -175,7 +176,10 @@ def _algorithm_class(algo: str) -> Any:
     return getattr(stable_baselines3, "PPO" if algo == "bc" else algo.upper())
 
 
-def _model_kwargs(algo: str, recipe: Mapping[str, Any]) -> dict[str, Any]:
+def model_kwargs(algo: str, recipe: Mapping[str, Any]) -> dict[str, Any]:
+    """The algorithm's constructor arguments from a recipe (rl-zoo3's conventions: string
+    ``policy_kwargs`` / ``replay_buffer_kwargs`` evaluated, ``lin_X`` schedules,
+    ``HerReplayBuffer`` by name), without the keys that configure the run."""
     kwargs = {k: v for k, v in recipe.items() if k not in _RUN_KEYS}
     for key in ("policy_kwargs", "replay_buffer_kwargs"):
         if isinstance(kwargs.get(key), str):
@@ -393,7 +397,7 @@ def train(
         "env_id": env_id,
         "env_kwargs": options,
         "config": config,
-        "recipe": {k: v for k, v in recipe.items()},
+        "recipe": dict(recipe),
         "recipe_file": str(conf) if conf is not None else f"panda_rapier/hyperparams/{algo}.yml",
         "seed": int(seed),
         "train_first_seed": train_seed,
@@ -451,7 +455,7 @@ def train(
             device="cpu",
             tensorboard_log=str(out / "tensorboard"),
             verbose=0,
-            **_model_kwargs(algo, recipe),
+            **model_kwargs(algo, recipe),
         )
     recorder = _Recorder(
         out, config, run, eval_episodes, num_threads, float(state["wall_time_s"]), say
