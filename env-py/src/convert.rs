@@ -17,8 +17,8 @@ enum InfoField {
     Count(&'static str, fn(&StepInfo) -> i64),
 }
 
-/// Every key of the info dict, in order. `reward_reach`, `reward_grasp`, `reward_lift` and the
-/// three `cube_*` flags are the goal-free inputs `compute_reward` needs for the dense reward;
+/// Every key of the info dict, in order. `reward_reach`, `reward_grasp`, `reward_lift`,
+/// `gripper_opening` and the three `cube_*` flags are the goal-free inputs `compute_reward` needs for the dense reward;
 /// they are reported for both reward types so transitions can be relabelled either way.
 const INFO_FIELDS: &[InfoField] = &[
     InfoField::Flag("is_success", |i| i.is_success),
@@ -32,6 +32,8 @@ const INFO_FIELDS: &[InfoField] = &[
     InfoField::Real("reward_lift", |i| i.context.lift as f64),
     InfoField::Real("reward_carry", |i| i.terms.carry as f64),
     InfoField::Real("reward_place", |i| i.terms.place as f64),
+    InfoField::Real("reward_release", |i| i.terms.release as f64),
+    InfoField::Real("gripper_opening", |i| i.context.gripper_opening as f64),
     InfoField::Flag("cube_released", |i| i.context.cube_released),
     InfoField::Flag("cube_at_rest", |i| i.context.cube_at_rest),
     InfoField::Flag("cube_on_platform", |i| i.context.cube_on_platform),
@@ -79,9 +81,10 @@ pub(crate) fn info_columns<'py>(
 }
 
 /// The goal-free reward inputs of `n` transitions, as columns gathered from infos by the
-/// Python side: `(reward_reach, reward_grasp, reward_lift)` float32 and
+/// Python side: `(reward_reach, reward_grasp, reward_lift, gripper_opening)` float32 and
 /// `(cube_released, cube_at_rest, cube_on_platform)` bool.
 pub(crate) type ContextColumns<'py> = (
+    PyReadonlyArray1<'py, f32>,
     PyReadonlyArray1<'py, f32>,
     PyReadonlyArray1<'py, f32>,
     PyReadonlyArray1<'py, f32>,
@@ -104,8 +107,8 @@ pub(crate) fn compute_reward<'py>(
     let n = achieved.len() / 3;
     let contexts: Vec<RewardContext> = match context {
         None => Vec::new(),
-        Some((reach, grasp, lift, released, at_rest, on_platform)) => {
-            let columns = [&reach, &grasp, &lift];
+        Some((reach, grasp, lift, opening, released, at_rest, on_platform)) => {
+            let columns = [&reach, &grasp, &lift, &opening];
             let flags = [&released, &at_rest, &on_platform];
             if columns.iter().any(|c| c.as_array().len() != n)
                 || flags.iter().any(|c| c.as_array().len() != n)
@@ -116,7 +119,7 @@ pub(crate) fn compute_reward<'py>(
                     format!("info must describe {n} transitions, one per goal pair"),
                 ));
             }
-            let [reach, grasp, lift] = columns.map(|c| c.as_array());
+            let [reach, grasp, lift, opening] = columns.map(|c| c.as_array());
             let [released, at_rest, on_platform] = flags.map(|c| c.as_array());
             (0..n)
                 .map(|i| RewardContext {
@@ -126,6 +129,7 @@ pub(crate) fn compute_reward<'py>(
                     cube_released: released[i],
                     cube_at_rest: at_rest[i],
                     cube_on_platform: on_platform[i],
+                    gripper_opening: opening[i],
                 })
                 .collect()
         }

@@ -122,6 +122,45 @@ def test_compute_reward_matches_step_reward(env_id: str, rng: np.random.Generato
     np.testing.assert_array_equal(shaped.reshape(-1), batch)
 
 
+def test_reward_weights_are_options_and_release_pays_for_opening_on_the_goal() -> None:
+    """The scripted expert places the cube: with default weights its dense rewards carry no
+    release term; with ``release`` and ``place`` weighted, the same episode's rewards change by
+    exactly the reweighted terms, and ``compute_reward`` reproduces them from the infos."""
+    weights = {"place": 7.0, "release": 2.0}
+    default = gym.make("panda_rapier/PickAndPlaceDense-v0")
+    weighted = gym.make("panda_rapier/PickAndPlaceDense-v0", reward_weights=weights)
+    assert weighted.unwrapped.config["reward_weights"]["grasp"] == 1.0
+    policy = panda_rapier.ScriptedPolicy(default)
+    obs, _ = default.reset(seed=5)
+    weighted.reset(seed=5)
+    released = []
+    for _ in range(panda_rapier.MAX_EPISODE_STEPS):
+        action, _ = policy.predict(obs)
+        obs, reward, _, _, info = default.step(action)
+        wobs, wreward, _, _, winfo = weighted.step(action)
+        np.testing.assert_array_equal(wobs["observation"], obs["observation"])
+        assert info["reward_release"] == 0.0
+        assert winfo["gripper_opening"] == info["gripper_opening"]
+        expected = reward - info["reward_place"] + winfo["reward_place"] + winfo["reward_release"]
+        assert wreward == pytest.approx(expected, abs=1e-5)
+        assert weighted.unwrapped.compute_reward(
+            wobs["achieved_goal"], wobs["desired_goal"], winfo
+        ) == pytest.approx(wreward, abs=0)
+        if winfo["reward_release"] > 0:
+            assert winfo["is_success"]
+            assert winfo["reward_release"] == pytest.approx(2.0 * winfo["gripper_opening"], 1e-6)
+            released.append(winfo["gripper_opening"])
+    assert info["is_placed"] and winfo["reward_place"] == 7.0
+    assert released and max(released) == 1.0
+    for bad, message in (
+        ({"release": -1.0}, r"reward_weights\.release.*>= 0"),
+        ({"place": float("nan")}, r"reward_weights\.place must be a finite number"),
+        ({"drop": 1.0}, "unknown field `drop`"),
+    ):
+        with pytest.raises(panda_rapier.ConfigError, match=message):
+            gym.make("panda_rapier/PickAndPlaceDense-v0", reward_weights=bad)
+
+
 def test_dense_compute_reward_needs_the_info() -> None:
     env = gym.make("panda_rapier/PickAndPlaceDense-v0")
     obs, _ = env.reset(seed=0)

@@ -312,3 +312,29 @@ def test_fit_normalizer_callback_on_gym_make_envs() -> None:
     model = _ppo(env, n_steps=16, batch_size=32)
     model.learn(32, callback=FitNormalizerCallback(episodes=2))
     assert (model.policy.features_extractor.scale.numpy() != 1).any()
+
+
+def test_min_action_std_keeps_the_gripper_exploring() -> None:
+    """The floor raises only the chosen dimension's log_std, before every rollout; policies
+    without a state-independent log_std are refused, not silently ignored."""
+    from sb3_contrib import TQC
+
+    from panda_rapier.exploration import MinActionStd
+
+    env = make_vec_env("panda_rapier/PickAndPlaceDense-v0", n_envs=2, seed=0, arm="kinematic")
+    model = PPO(
+        "MultiInputPolicy", env, n_steps=8, batch_size=16, n_epochs=1, seed=0, device="cpu",
+        policy_kwargs={"log_std_init": -3.0, "net_arch": [16]},
+    )  # fmt: skip
+    model.learn(32, callback=MinActionStd(min_std=0.5, dims=[-1]))
+    log_std = model.policy.log_std.detach().numpy()
+    # Raised to the floor before the last rollout, then moved by at most one small update.
+    assert log_std[-1] == pytest.approx(np.log(0.5), abs=0.05)
+    assert np.all(log_std[:-1] < -2.5), log_std
+    with pytest.raises(ValueError, match="out of range"):
+        model.learn(8, callback=MinActionStd(min_std=0.5, dims=[4]))
+    with pytest.raises(ValueError, match="positive"):
+        MinActionStd(min_std=0.0)
+    tqc = TQC("MultiInputPolicy", env, learning_starts=0, buffer_size=100, device="cpu")
+    with pytest.raises(TypeError, match="log_std"):
+        tqc.learn(2, callback=MinActionStd(min_std=0.5))

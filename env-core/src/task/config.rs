@@ -4,6 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{invalid, non_negative, positive, ArmModel, SimConfig};
 use crate::error::Result;
+use crate::task::reward::RewardWeights;
 
 /// How actions drive the robot.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -145,6 +146,14 @@ impl Default for TaskThresholds {
 ///   "arm": "dynamic",
 ///   "control_mode": "ee",
 ///   "reward_type": "sparse",
+///   "reward_weights": {
+///     "reach": 1.0,
+///     "grasp": 1.0,
+///     "lift": 1.0,
+///     "carry": 2.0,
+///     "place": 5.0,
+///     "release": 0.0
+///   },
 ///   "max_episode_steps": 70,
 ///   "control_frequency": 25.0,
 ///   "success_threshold": 0.05,
@@ -231,6 +240,9 @@ pub struct EnvConfig {
     pub control_mode: ControlMode,
     /// Sparse or dense reward.
     pub reward_type: RewardType,
+    /// Weights of the dense reward's terms (see [`crate::task::reward`]); the sparse reward
+    /// does not read them.
+    pub reward_weights: RewardWeights,
     /// Steps after which an episode is truncated; `null` (`None`): never, for when an outer
     /// wrapper keeps time (Gymnasium's `TimeLimit`, which `gym.make` adds from the registry).
     /// The default, 70 steps (2.8 s at 25 Hz), is the episode length the scripted policy needs
@@ -290,6 +302,7 @@ impl Default for EnvConfig {
         Self {
             control_mode: ControlMode::Ee,
             reward_type: RewardType::Sparse,
+            reward_weights: RewardWeights::default(),
             max_episode_steps: Some(70),
             control_frequency: 25.0,
             success_threshold: 0.05,
@@ -397,6 +410,7 @@ impl EnvConfig {
             return Err(invalid("max_episode_steps", "must be >= 1, got 0"));
         }
         positive("success_threshold", self.success_threshold)?;
+        self.reward_weights.validate()?;
         positive("ee_step", self.ee_step)?;
         positive("joint_step", self.joint_step)?;
         non_negative("ee_surface_clearance", self.ee_surface_clearance)?;

@@ -10,9 +10,7 @@ use crate::kinematics::{pointing_down, IkOptions, IkWorkspace};
 use crate::physics::{JointControl, SimSnapshot, Simulation};
 use crate::task::config::{ControlMode, EnvConfig};
 use crate::task::observation::ObservationLayout;
-use crate::task::reward::{
-    closeness, RewardContext, RewardFunction, RewardTerms, GRASP_WEIGHT, LIFT_WEIGHT, REACH_WEIGHT,
-};
+use crate::task::reward::{closeness, RewardContext, RewardFunction, RewardTerms};
 
 /// Overrides for one reset (Gymnasium's `options`); anything left `None` is drawn at random.
 /// The random draws happen either way, so an override does not shift the rest of the episode's
@@ -240,6 +238,7 @@ impl PickAndPlaceEnv {
         let reward_fn = RewardFunction {
             reward_type: config.reward_type,
             success_threshold: config.success_threshold,
+            weights: config.reward_weights,
         };
         let num_joints = layout.num_joints();
         let flat_dim = layout.flat_dim();
@@ -359,7 +358,8 @@ impl PickAndPlaceEnv {
             });
         }
         let ik_error = self.info.ik_position_error;
-        self.info = self.evaluate(false, ik_error).0;
+        let opening = self.info.context.gripper_opening as f64;
+        self.info = self.evaluate(false, ik_error, opening).0;
         Ok(&self.info)
     }
 
@@ -456,7 +456,8 @@ impl PickAndPlaceEnv {
                 reason: "the start state is not finite".into(),
             });
         }
-        self.info = self.evaluate(false, f64::NAN).0;
+        let opening = self.gripper_opening(self.sim.gripper_width());
+        self.info = self.evaluate(false, f64::NAN, opening).0;
         Ok(())
     }
 
@@ -509,7 +510,8 @@ impl PickAndPlaceEnv {
         if !stable {
             self.status = Status::Unstable;
         }
-        let (mut info, reward) = self.evaluate(!stable, ik_error);
+        let opening = self.gripper_opening(width);
+        let (mut info, reward) = self.evaluate(!stable, ik_error, opening);
         info.arm_blocked = self.sim.arm_blocked_steps() > blocked_before;
         self.info = info;
         Transition {
@@ -660,8 +662,19 @@ impl PickAndPlaceEnv {
         true
     }
 
-    /// The info and the reward for the current observation.
-    fn evaluate(&self, unstable: bool, ik_error: f64) -> (StepInfo, f32) {
+    /// A gripper width as a fraction of the full opening, in [0, 1].
+    fn gripper_opening(&self, width: f64) -> f64 {
+        let max = self.sim.gripper_max_width();
+        if max > 0.0 {
+            (width / max).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// The info and the reward for the current observation; `opening` is the gripper opening
+    /// (0 closed, 1 fully open) the last action asked for.
+    fn evaluate(&self, unstable: bool, ik_error: f64, opening: f64) -> (StepInfo, f32) {
         let t = &self.config.thresholds;
         let touch = self.sim.cube_touch();
         let l = &self.layout;
@@ -678,13 +691,15 @@ impl PickAndPlaceEnv {
         } else {
             0.0
         };
+        let w = &self.config.reward_weights;
         let context = RewardContext {
-            reach: REACH_WEIGHT * closeness(reach_distance),
-            grasp: if is_grasped { GRASP_WEIGHT } else { 0.0 },
-            lift: LIFT_WEIGHT * lift as f32,
+            reach: w.reach as f32 * closeness(reach_distance),
+            grasp: if is_grasped { w.grasp as f32 } else { 0.0 },
+            lift: w.lift as f32 * lift as f32,
             cube_released: !touch.robot_touching(),
             cube_at_rest: cube_speed < t.rest_linear_speed && cube_spin < t.rest_angular_speed,
             cube_on_platform: touch.platform,
+            gripper_opening: opening as f32,
         };
         let verdict =
             self.reward_fn

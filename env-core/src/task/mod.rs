@@ -10,4 +10,4 @@ pub mod reward;
 pub use config::{ControlMode, EnvConfig, Randomization, Region, RewardType, TaskThresholds};
 pub use env::{env_rng, EnvSnapshot, PickAndPlaceEnv, ResetOptions, StepInfo, Transition};
 pub use observation::{ObservationLayout, Slot, GOAL_DIM};
-pub use reward::{RewardContext, RewardFunction, RewardTerms};
+pub use reward::{RewardContext, RewardFunction, RewardTerms, RewardWeights};

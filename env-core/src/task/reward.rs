@@ -3,36 +3,88 @@
 //!
 //! - `sparse`: `-1` while the cube is farther than the success threshold from the goal, `0`
 //!   within it (the convention hindsight experience replay expects).
-//! - `dense`: a staged sum, each term in `[0, weight]`:
+//! - `dense`: a staged sum, each term in `[0, weight]`, the weights options
+//!   ([`RewardWeights`], `reward_weights` in the environment's configuration, as Gymnasium's
+//!   MuJoCo v5 environments take theirs):
 //!
-//! | term | weight | value |
+//! | term | default weight | value |
 //! |---|---|---|
 //! | `reach` | 1 | `1 - tanh(5 d)`, `d` = distance from the TCP to the cube centre |
 //! | `grasp` | 1 | 1 while both fingers squeeze the cube (`is_grasped`) |
 //! | `lift` | 1 | cube height above its floor resting height over the platform's height, clipped to [0, 1] |
 //! | `carry` | 2 | `1 - tanh(5 d)`, `d` = distance from the cube to the goal |
 //! | `place` | 5 | 1 once the cube is placed: released, at rest, on the platform, within the threshold |
+//! | `release` | 0 | the gripper opening the action commands (0 closed, 1 fully open) while the cube is within the threshold |
 //!
 //! A placed cube earns more than one held at the goal (`1 + 0 + 1 + 2 + 5` against
-//! `1 + 1 + 1 + 2`), so releasing it is worth learning. `reach`, `grasp` and `lift` do not
-//! depend on the goal; `carry` and `place` are recomputed from `achieved_goal` and
-//! `desired_goal`, so relabelled goals (HER) get exactly the reward the environment would
-//! have given.
+//! `1 + 1 + 1 + 2`), so releasing it is worth learning. Finding it is another matter: the
+//! fingers let go of the cube only when the gripper command is above about +0.5 for two
+//! steps, which a policy that has learned to squeeze the cube through the whole carry almost
+//! never samples (`docs/training.md`). `release`, off by default, pays for opening the hand
+//! once the cube is at the goal, in proportion to the command, so the step towards letting go
+//! is rewarded before the cube is placed (shaping that depends on the action, like the control
+//! costs of the MuJoCo environments). It does not ask for the cube to touch the platform: a
+//! learned grasp may hold it a centimetre above its resting height, from where it drops into
+//! place. It is meant for goals on the platform; with air goals (`goal_air_probability`)
+//! letting go loses `carry`. `reach`, `grasp`, `lift` and the gripper
+//! opening do not depend on the goal; `carry`, `place` and `release` are recomputed from
+//! `achieved_goal` and `desired_goal`, so relabelled goals (HER) get exactly the reward the
+//! environment would have given.
 
+use serde::{Deserialize, Serialize};
+
+use crate::config::non_negative;
 use crate::error::{Error, Result};
 use crate::task::config::RewardType;
 use crate::task::observation::GOAL_DIM;
 
-/// Weight of the `reach` term.
-pub const REACH_WEIGHT: f32 = 1.0;
-/// Weight of the `grasp` term.
-pub const GRASP_WEIGHT: f32 = 1.0;
-/// Weight of the `lift` term.
-pub const LIFT_WEIGHT: f32 = 1.0;
-/// Weight of the `carry` term.
-pub const CARRY_WEIGHT: f32 = 2.0;
-/// Weight of the `place` term.
-pub const PLACE_WEIGHT: f32 = 5.0;
+/// Weights of the dense reward's terms (see the module table); each finite and `>= 0`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RewardWeights {
+    /// Weight of the `reach` term.
+    pub reach: f64,
+    /// Weight of the `grasp` term.
+    pub grasp: f64,
+    /// Weight of the `lift` term.
+    pub lift: f64,
+    /// Weight of the `carry` term.
+    pub carry: f64,
+    /// Weight of the `place` term.
+    pub place: f64,
+    /// Weight of the `release` term (0: off).
+    pub release: f64,
+}
+
+impl Default for RewardWeights {
+    fn default() -> Self {
+        Self {
+            reach: 1.0,
+            grasp: 1.0,
+            lift: 1.0,
+            carry: 2.0,
+            place: 5.0,
+            release: 0.0,
+        }
+    }
+}
+
+impl RewardWeights {
+    /// Checks that every weight is finite and `>= 0`.
+    pub fn validate(&self) -> Result<()> {
+        for (name, value) in [
+            ("reward_weights.reach", self.reach),
+            ("reward_weights.grasp", self.grasp),
+            ("reward_weights.lift", self.lift),
+            ("reward_weights.carry", self.carry),
+            ("reward_weights.place", self.place),
+            ("reward_weights.release", self.release),
+        ] {
+            non_negative(name, value)?;
+        }
+        Ok(())
+    }
+}
 
 /// The goal-free inputs of the reward, as reported in the step info.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -49,6 +101,9 @@ pub struct RewardContext {
     pub cube_at_rest: bool,
     /// The cube touches the platform.
     pub cube_on_platform: bool,
+    /// The gripper opening the last action commanded, from 0 (closed) to 1 (fully open); at
+    /// reset, the measured opening.
+    pub gripper_opening: f32,
 }
 
 /// The dense reward's terms, weighted; the reward is their sum in this order.
@@ -64,12 +119,15 @@ pub struct RewardTerms {
     pub carry: f32,
     /// See the module table.
     pub place: f32,
+    /// See the module table.
+    pub release: f32,
 }
 
 impl RewardTerms {
-    /// The dense reward: the terms summed in a fixed order.
+    /// The dense reward: the terms summed in a fixed order (`release` last, so with its
+    /// default weight of 0 the sum is bit for bit the five-term sum).
     pub fn total(&self) -> f32 {
-        self.reach + self.grasp + self.lift + self.carry + self.place
+        self.reach + self.grasp + self.lift + self.carry + self.place + self.release
     }
 }
 
@@ -93,13 +151,16 @@ pub fn closeness(distance: f64) -> f32 {
     (1.0 - (5.0 * distance).tanh()) as f32
 }
 
-/// The reward function of an environment: its type and success threshold.
+/// The reward function of an environment: its type, success threshold and dense weights.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RewardFunction {
     /// Sparse or dense.
     pub reward_type: RewardType,
     /// Success threshold (m).
     pub success_threshold: f64,
+    /// Weights of the dense terms. `reach`, `grasp` and `lift` arrive already weighted in the
+    /// [`RewardContext`] (the environment applies them); the others are applied here.
+    pub weights: RewardWeights,
 }
 
 impl RewardFunction {
@@ -137,12 +198,18 @@ impl RewardFunction {
                 terms: RewardTerms::default(),
             },
             RewardType::Dense => {
+                let w = &self.weights;
                 let terms = RewardTerms {
                     reach: context.reach,
                     grasp: context.grasp,
                     lift: context.lift,
-                    carry: CARRY_WEIGHT * closeness(distance),
-                    place: if is_placed { PLACE_WEIGHT } else { 0.0 },
+                    carry: w.carry as f32 * closeness(distance),
+                    place: if is_placed { w.place as f32 } else { 0.0 },
+                    release: if is_success {
+                        w.release as f32 * context.gripper_opening.clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    },
                 };
                 GoalVerdict {
                     distance,
@@ -205,12 +272,21 @@ mod tests {
 
     fn placed_context() -> RewardContext {
         RewardContext {
-            reach: REACH_WEIGHT,
+            reach: 1.0,
             grasp: 0.0,
-            lift: LIFT_WEIGHT,
+            lift: 1.0,
             cube_released: true,
             cube_at_rest: true,
             cube_on_platform: true,
+            gripper_opening: 1.0,
+        }
+    }
+
+    fn dense() -> RewardFunction {
+        RewardFunction {
+            reward_type: RewardType::Dense,
+            success_threshold: 0.05,
+            weights: RewardWeights::default(),
         }
     }
 
@@ -218,7 +294,7 @@ mod tests {
     fn sparse_is_minus_one_outside_the_threshold_and_zero_inside() {
         let f = RewardFunction {
             reward_type: RewardType::Sparse,
-            success_threshold: 0.05,
+            ..dense()
         };
         let goal = [0.5, 0.3, 0.125];
         let near = [0.5, 0.3 + 0.049, 0.125];
@@ -232,18 +308,16 @@ mod tests {
 
     #[test]
     fn placing_beats_holding_at_the_goal() {
-        let f = RewardFunction {
-            reward_type: RewardType::Dense,
-            success_threshold: 0.05,
-        };
+        let f = dense();
         let goal = [0.5, 0.3, 0.125];
         let holding = RewardContext {
-            reach: REACH_WEIGHT,
-            grasp: GRASP_WEIGHT,
-            lift: LIFT_WEIGHT,
+            reach: 1.0,
+            grasp: 1.0,
+            lift: 1.0,
             cube_released: false,
             cube_at_rest: true,
             cube_on_platform: false,
+            gripper_opening: 0.0,
         };
         let held = f.evaluate(&goal, &goal, &holding);
         let placed = f.evaluate(&goal, &goal, &placed_context());
@@ -258,8 +332,11 @@ mod tests {
     #[test]
     fn batch_matches_single_and_rejects_bad_shapes() {
         let f = RewardFunction {
-            reward_type: RewardType::Dense,
-            success_threshold: 0.05,
+            weights: RewardWeights {
+                release: 0.5,
+                ..RewardWeights::default()
+            },
+            ..dense()
         };
         let achieved = [0.5, 0.3, 0.125, 0.1, 0.1, 0.025];
         let desired = [0.5, 0.31, 0.125, 0.5, 0.3, 0.125];
@@ -288,5 +365,60 @@ mod tests {
             f.compute_batch(&nan, &desired, &contexts, &mut out),
             Err(Error::NonFinite { .. })
         ));
+    }
+
+    #[test]
+    fn weights_scale_their_terms_and_release_pays_only_at_the_goal() {
+        let goal = [0.5, 0.3, 0.125];
+        let off = [0.5, 0.4, 0.125];
+        let mut held_on_goal = placed_context();
+        held_on_goal.cube_released = false;
+        held_on_goal.gripper_opening = 0.25;
+        let default = dense().evaluate(&goal, &goal, &held_on_goal);
+        assert_eq!(default.terms.release, 0.0);
+        assert_eq!(default.terms.carry, 2.0);
+        let weighted = RewardFunction {
+            weights: RewardWeights {
+                carry: 3.0,
+                place: 7.0,
+                release: 2.0,
+                ..RewardWeights::default()
+            },
+            ..dense()
+        };
+        let v = weighted.evaluate(&goal, &goal, &held_on_goal);
+        assert_eq!(v.terms.carry, 3.0);
+        assert_eq!(v.terms.release, 0.5);
+        assert_eq!(v.reward, v.terms.total());
+        assert_eq!(
+            weighted
+                .evaluate(&goal, &goal, &placed_context())
+                .terms
+                .place,
+            7.0
+        );
+        // Off the goal: no release reward; held just above the platform: the same as on it.
+        assert_eq!(
+            weighted.evaluate(&off, &goal, &held_on_goal).terms.release,
+            0.0
+        );
+        let mut lifted = held_on_goal;
+        lifted.cube_on_platform = false;
+        assert_eq!(weighted.evaluate(&goal, &goal, &lifted).terms.release, 0.5);
+    }
+
+    #[test]
+    fn weights_must_be_finite_and_non_negative() {
+        assert!(RewardWeights::default().validate().is_ok());
+        for bad in [-1.0, f64::NAN, f64::INFINITY] {
+            let w = RewardWeights {
+                release: bad,
+                ..RewardWeights::default()
+            };
+            assert!(
+                matches!(w.validate(), Err(Error::InvalidConfig { .. })),
+                "{bad}"
+            );
+        }
     }
 }

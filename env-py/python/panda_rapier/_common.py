@@ -14,7 +14,7 @@ from .errors import ConfigError, InvalidActionError, InvalidArgumentError, Reset
 
 #: Info keys that carry the goal-free inputs of the dense reward, in the order the native
 #: ``compute_reward`` takes them.
-CONTEXT_FLOAT_KEYS = ("reward_reach", "reward_grasp", "reward_lift")
+CONTEXT_FLOAT_KEYS = ("reward_reach", "reward_grasp", "reward_lift", "gripper_opening")
 CONTEXT_FLAG_KEYS = ("cube_released", "cube_at_rest", "cube_on_platform")
 
 #: Slices of the flat native observation (Gymnasium's ``spaces.flatten`` order of the dict).
@@ -26,8 +26,33 @@ OBSERVATION = slice(2 * GOAL_DIM, None)
 _MAX_SEED = 2**64
 
 
+def _non_finite(value: Any, path: str) -> str | None:
+    """The path of the first NaN or infinite number in an option value, if any."""
+    if isinstance(value, float | np.floating) and not np.isfinite(value):
+        return path
+    if isinstance(value, Mapping):
+        items: Any = ((f"{path}.{k}", v) for k, v in value.items())
+    elif isinstance(value, list | tuple):
+        items = ((f"{path}[{i}]", v) for i, v in enumerate(value))
+    elif isinstance(value, np.ndarray) and value.dtype.kind == "f":
+        bad = np.flatnonzero(~np.isfinite(value))
+        return f"{path}[{int(bad[0])}]" if bad.size else None
+    else:
+        return None
+    for where, item in items:
+        found = _non_finite(item, where)
+        if found is not None:
+            return found
+    return None
+
+
 def config_json(config: Mapping[str, Any]) -> str:
-    """Serialises keyword options for the native side (which validates them)."""
+    """Serialises keyword options for the native side (which validates them); NaN and infinite
+    numbers are refused here, with the option's name, since JSON cannot carry them."""
+    for key, value in dict(config).items():
+        where = _non_finite(value, str(key))
+        if where is not None:
+            raise ConfigError(f"option {where} must be a finite number, got {value!r}")
 
     def builtin(value: Any) -> Any:
         if isinstance(value, np.ndarray | np.generic):
@@ -35,7 +60,7 @@ def config_json(config: Mapping[str, Any]) -> str:
         raise ConfigError(f"option value {value!r} of type {type(value).__name__} is not supported")
 
     try:
-        return json.dumps(dict(config), default=builtin, allow_nan=True)
+        return json.dumps(dict(config), default=builtin, allow_nan=False)
     except (TypeError, ValueError) as error:
         raise ConfigError(f"options cannot be encoded: {error}") from error
 

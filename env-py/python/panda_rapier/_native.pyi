@@ -13,7 +13,7 @@ def tutorial_fidelity(config_json: str) -> dict[str, float | bool]: ...
 _F32 = npt.NDArray[np.float32]
 _F64 = npt.NDArray[np.float64]
 _Bool = npt.NDArray[np.bool_]
-_Context = tuple[_F32, _F32, _F32, _Bool, _Bool, _Bool]
+_Context = tuple[_F32, _F32, _F32, _F32, _Bool, _Bool, _Bool]
 _Pose = tuple[list[float], list[float]]
 
 @final

@@ -51,8 +51,10 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
     ## Rewards
     ``reward_type="sparse"`` (default): -1 until the cube is within ``success_threshold``
     (0.05 m) of the goal, 0 within it. ``"dense"``: reach 1 + grasp 1 + lift 1 + carry 2 +
-    place 5, each term in the info as ``reward_*``. :meth:`compute_reward` recomputes either
-    from goals and infos, batched, for hindsight experience replay.
+    place 5 + release 0, each term in the info as ``reward_*``; the weights are options
+    (``reward_weights={"grasp": 0.5, "release": 1.0}``; ``release`` pays the commanded gripper
+    opening while the cube is at the goal, off by default). :meth:`compute_reward` recomputes
+    either from goals and infos, batched, for hindsight experience replay.
 
     ## Starting State
     The arm in its ready pose (optionally with ``randomization.joint_noise``), the cube in
