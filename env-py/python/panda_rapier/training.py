@@ -65,7 +65,17 @@ VALIDATION_FIRST_SEED = 500_000_000
 RUN_MEMBER = "panda_rapier_run.json"
 
 # Recipe keys that configure the run rather than the algorithm (rl-zoo3's names).
-_RUN_KEYS = ("n_timesteps", "policy", "n_envs", "env_kwargs", "callback", "normalize")
+# `monitor_kwargs` only matters to rl-zoo3 (its Monitor wrappers); the native VecEnv reports
+# `is_success` and `is_placed` in every info, and the periodic evaluations log both.
+_RUN_KEYS = (
+    "n_timesteps",
+    "policy",
+    "n_envs",
+    "env_kwargs",
+    "callback",
+    "normalize",
+    "monitor_kwargs",
+)
 _UNSUPPORTED = ("frame_stack", "env_wrapper", "vec_env_wrapper")
 _BC_KEYS = {
     "policy": "MultiInputPolicy",
