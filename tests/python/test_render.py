@@ -367,3 +367,63 @@ def test_render_after_close_is_a_reset_needed_error() -> None:
     envs.close()
     with pytest.raises(panda_rapier.ResetNeededError, match="closed"):
         envs.render()
+
+
+def test_sb3_vec_env_renders_and_vec_video_recorder_writes_a_video(tmp_path: Path) -> None:
+    pytest.importorskip("moviepy")  # the render extra
+    from stable_baselines3.common.vec_env import VecVideoRecorder
+
+    from panda_rapier.sb3 import make_vec_env
+
+    venv = make_vec_env(ENV_ID, n_envs=4, seed=0, render_mode="rgb_array", width=96, height=64)
+    venv.reset()
+    images = venv.get_images()
+    assert len(images) == 4 and all(i.shape == (64, 96, 3) and i.dtype == np.uint8 for i in images)
+    assert not np.array_equal(images[0], images[1])  # another cube position
+    np.testing.assert_array_equal(venv.render(), images[0])
+    np.testing.assert_array_equal(venv.render("rgb_array"), images[0])
+    with pytest.raises(panda_rapier.InvalidArgumentError, match="render_mode='rgb_array'"):
+        venv.render("human")
+    # The same seed gives the same bytes.
+    again = make_vec_env(ENV_ID, n_envs=4, seed=0, render_mode="rgb_array", width=96, height=64)
+    again.reset()
+    np.testing.assert_array_equal(again.get_images()[3], images[3])
+    again.close()
+    recorder = VecVideoRecorder(
+        venv, str(tmp_path), record_video_trigger=lambda step: step == 0, video_length=10
+    )
+    recorder.reset()
+    for _ in range(12):
+        recorder.step(np.zeros((4, 4), np.float32))
+    recorder.close()
+    videos = list(tmp_path.glob("*.mp4"))
+    assert len(videos) == 1 and videos[0].stat().st_size > 1000
+    tiled = make_vec_env(ENV_ID, n_envs=4, render_mode="rgb_array", width=96, height=64,
+                         render_envs=4)  # fmt: skip
+    tiled.reset()
+    assert tiled.render().shape == (128, 192, 3)
+    tiled.close()
+    plain = make_vec_env(ENV_ID, n_envs=2)
+    assert plain.get_images() == [None, None]
+    with pytest.warns(UserWarning, match="render_mode"):
+        assert plain.render() is None
+    with pytest.raises(ConfigError, match="render_envs"):
+        make_vec_env(ENV_ID, n_envs=2, render_mode="rgb_array", render_envs=3)
+    with pytest.raises(ConfigError, match="render_mode"):
+        make_vec_env(ENV_ID, n_envs=2, render_mode="rgb")
+
+
+def test_gymnasium_record_video_on_gym_make(tmp_path: Path) -> None:
+    pytest.importorskip("moviepy")  # the render extra
+    from gymnasium.wrappers import RecordVideo
+
+    env = gym.make(ENV_ID, render_mode="rgb_array", width=96, height=64)
+    folder = tmp_path / "videos"  # RecordVideo warns about a folder that already exists
+    env = RecordVideo(env, str(folder), episode_trigger=lambda episode: episode == 0)
+    env.reset(seed=0)
+    for _ in range(panda_rapier.MAX_EPISODE_STEPS):
+        env.step(env.action_space.sample())
+    env.reset()  # ends the recorded episode
+    env.close()
+    videos = list(folder.glob("*.mp4"))
+    assert len(videos) == 1 and videos[0].stat().st_size > 1000

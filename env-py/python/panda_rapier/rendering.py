@@ -34,6 +34,17 @@ def check_render_mode(render_mode: str | None) -> None:
         raise ConfigError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
 
 
+def check_render_envs(render_envs: Any, num_envs: int) -> int:
+    """``render_envs`` of a vector environment: an int in ``[1, num_envs]``."""
+    if (
+        isinstance(render_envs, bool)
+        or not isinstance(render_envs, int | np.integer)
+        or not 1 <= render_envs <= num_envs
+    ):
+        raise ConfigError(f"render_envs must be an int in [1, num_envs], got {render_envs!r}")
+    return int(render_envs)
+
+
 def make_renderer(width: Any, height: Any, camera: Mapping[str, Any] | None) -> NativeRenderer:
     """A native renderer; bad sizes or camera options raise :class:`ConfigError`."""
     for name, value in (("width", width), ("height", height)):

@@ -30,6 +30,14 @@ from . import _common
 from ._native import NativeVecEnv
 from .errors import ConfigError, InvalidArgumentError
 from .registration import env_config
+from .rendering import (
+    DEFAULT_HEIGHT,
+    DEFAULT_WIDTH,
+    FrameSource,
+    check_render_envs,
+    check_render_mode,
+    tile,
+)
 
 __all__ = ["PandaRapierVecEnv", "make_vec_env"]
 
@@ -38,9 +46,9 @@ class _SubEnv:
     """What ``get_attr`` / ``set_attr`` / ``env_method`` see as environment ``i``: the
     attributes every environment shares, plus any set with ``set_attr``."""
 
-    def __init__(self, owner: PandaRapierVecEnv) -> None:
+    def __init__(self, owner: PandaRapierVecEnv, render_mode: str | None) -> None:
         self._owner = owner
-        self.render_mode: str | None = None
+        self.render_mode = render_mode
 
     @property
     def dt(self) -> float:
@@ -66,6 +74,11 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
     needed for ``ep_rew_mean`` and success-rate logging). ``env_method("compute_reward", ...)``
     is batched, so ``HerReplayBuffer`` works. Every info carries the step info of
     :class:`~panda_rapier.PickAndPlaceEnv`.
+
+    With ``render_mode="rgb_array"``, ``get_images()`` draws every environment and
+    ``render()`` environment 0 (or the first ``render_envs`` tiled), so SB3's
+    ``VecVideoRecorder`` works; ``"human"`` shows the same in a window. ``width``, ``height``
+    and ``camera`` as for :class:`~panda_rapier.PickAndPlaceEnv`.
     """
 
     def __init__(
@@ -74,10 +87,18 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
         *,
         num_threads: int | None = None,
         spec: gym.envs.registration.EnvSpec | None = None,
+        render_mode: str | None = None,
+        width: int = DEFAULT_WIDTH,
+        height: int = DEFAULT_HEIGHT,
+        camera: dict[str, Any] | None = None,
+        render_envs: int = 1,
         **config: Any,
     ) -> None:
+        self._frames: FrameSource | None = None
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
             raise ConfigError(f"num_envs must be an int >= 1, got {num_envs!r}")
+        self._render_envs = check_render_envs(render_envs, int(num_envs))
+        check_render_mode(render_mode)
         self._bind_native(
             NativeVecEnv(
                 _common.config_json(config),
@@ -87,7 +108,7 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
             )
         )
         self.spec = spec
-        self._sub_envs = [_SubEnv(self) for _ in range(int(num_envs))]
+        self._sub_envs = [_SubEnv(self, render_mode) for _ in range(int(num_envs))]
         super().__init__(
             int(num_envs),
             _common.observation_space(self._native.observation_dim),
@@ -98,6 +119,7 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
         self._episode_returns = np.zeros(self.num_envs, dtype=np.float64)
         self._episode_lengths = np.zeros(self.num_envs, dtype=np.int64)
         self._start_time = time.time()
+        self._frames = FrameSource(render_mode, width, height, camera, float(self._native.dt))
 
     @property
     def num_threads(self) -> int:
@@ -149,6 +171,9 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
         return _common.split_observation(flat), rewards, dones, infos
 
     def close(self) -> None:
+        if self._frames is not None:
+            self._frames.close()
+            self._frames = None
         self._native = _common.Closed("vector environment")
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
@@ -175,8 +200,33 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
     ) -> list[bool]:
         return [False for _ in self._get_indices(indices)]
 
+    def _frame(self, index: int) -> np.ndarray:
+        if isinstance(self._native, _common.Closed) or self._frames is None:
+            _common.Closed("vector environment").check()
+        assert self._frames is not None
+        return self._frames.renderer.render_vec_env(self._native, index)
+
     def get_images(self) -> Sequence[np.ndarray | None]:
-        return [None for _ in range(self.num_envs)]
+        """One HxWx3 uint8 frame per environment (``None`` each without a render mode)."""
+        if self.render_mode is None:
+            return [None for _ in range(self.num_envs)]
+        return [self._frame(i) for i in range(self.num_envs)]
+
+    def render(self, mode: str | None = None) -> np.ndarray | None:
+        """Environment 0 (or the first ``render_envs`` tiled) as an HxWx3 uint8 frame, or shown
+        in the window in ``human`` mode (returns None). ``mode``, if given, must be the
+        environment's render mode (Gymnasium's rule, as SB3's own ``render``)."""
+        if mode is not None and mode != self.render_mode:
+            raise InvalidArgumentError(
+                f"render(mode={mode!r}): this environment was made with "
+                f"render_mode={self.render_mode!r}; pass render_mode to make_vec_env"
+            )
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode.")
+            return None
+        frame = tile([self._frame(i) for i in range(self._render_envs)])
+        assert self._frames is not None
+        return self._frames.output(frame)
 
 
 def _rows(columns: dict[str, np.ndarray]) -> list[dict[str, Any]]:
@@ -191,16 +241,33 @@ def make_vec_env(
     n_envs: int = 1,
     seed: int | None = None,
     num_threads: int | None = None,
+    *,
+    render_mode: str | None = None,
+    width: int = DEFAULT_WIDTH,
+    height: int = DEFAULT_HEIGHT,
+    camera: dict[str, Any] | None = None,
+    render_envs: int = 1,
     **config: Any,
 ) -> PandaRapierVecEnv:
     """A :class:`PandaRapierVecEnv` for a registered id (``panda_rapier.ENV_IDS``), with the
-    id's options (and its time limit, 70 steps) overridden by ``config``.
+    id's options (and its time limit, 70 steps) overridden by ``config``; ``render_mode``,
+    ``width``, ``height``, ``camera`` and ``render_envs`` pass through to it.
 
     With ``seed``, environment ``i``'s first episode is seeded with ``seed + i`` (as
     stable-baselines3's own ``make_vec_env``); the same seed gives the same rollouts.
     """
     options = env_config(env_id, **config)
-    venv = PandaRapierVecEnv(n_envs, num_threads=num_threads, spec=gym.spec(env_id), **options)
+    venv = PandaRapierVecEnv(
+        n_envs,
+        num_threads=num_threads,
+        spec=gym.spec(env_id),
+        render_mode=render_mode,
+        width=width,
+        height=height,
+        camera=camera,
+        render_envs=render_envs,
+        **options,
+    )
     if seed is not None:
         venv.seed(_common.as_seed(seed))
     return venv

@@ -13,7 +13,15 @@ from gymnasium.vector.utils import batch_space
 from . import _common
 from ._native import NativeVecEnv
 from .errors import ConfigError, InvalidArgumentError
-from .rendering import DEFAULT_HEIGHT, DEFAULT_WIDTH, RENDER_MODES, FrameSource, tile
+from .rendering import (
+    DEFAULT_HEIGHT,
+    DEFAULT_WIDTH,
+    RENDER_MODES,
+    FrameSource,
+    check_render_envs,
+    check_render_mode,
+    tile,
+)
 
 _NATIVE_MODES = {
     AutoresetMode.NEXT_STEP: "next_step",
@@ -76,16 +84,8 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
             or num_threads < 1
         ):
             raise ConfigError(f"num_threads must be an int >= 1 or None, got {num_threads!r}")
-        if (
-            isinstance(render_envs, bool)
-            or not isinstance(render_envs, int | np.integer)
-            or not 1 <= render_envs <= num_envs
-        ):
-            raise ConfigError(f"render_envs must be an int in [1, num_envs], got {render_envs!r}")
-        if render_mode is not None and render_mode not in RENDER_MODES:
-            raise ConfigError(
-                f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}"
-            )
+        render_envs = check_render_envs(render_envs, int(num_envs))
+        check_render_mode(render_mode)
         mode = _autoreset_mode(autoreset_mode)
         self._bind_native(
             NativeVecEnv(
