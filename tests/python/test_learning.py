@@ -208,6 +208,35 @@ def test_train_ppo_checkpoints_and_resumes(tmp_path: Path) -> None:
     assert main([*common, "--out", str(tmp_path / "none"), "--resume"]) == 2
 
 
+def test_train_init_from_starts_from_another_models_weights(tmp_path: Path) -> None:
+    """Fine-tuning: a new run (here on the kinematic arm) starts from a saved model's weights
+    and normaliser, and records where they came from; mismatched spaces are refused."""
+    conf = _write_recipe(tmp_path / "ppo.yml", "ppo", {
+        "n_envs": 4, "n_steps": 32, "batch_size": 64, "n_epochs": 1,
+        "policy_kwargs": "dict(features_extractor_class=NormalizedFlatten, net_arch=[32])",
+        "callback": "panda_rapier.normalization.FitNormalizerCallback",
+    })  # fmt: skip
+    common = ["train", "--algo", "ppo", "--env-id", "panda_rapier/PickAndPlaceDense-v0",
+              "--conf", str(conf), "--quiet", "--eval-every", "0", "--checkpoint-every", "0",
+              "--timesteps", "128"]  # fmt: skip
+    assert main([*common, "--out", str(tmp_path / "a")]) == 0
+    source = PPO.load(tmp_path / "a" / "model.zip", device="cpu")
+    assert main([*common, "--out", str(tmp_path / "b"), "--env-kwargs", "arm=kinematic",
+                 "--init-from", str(tmp_path / "a" / "model.zip")]) == 0  # fmt: skip
+    tuned = PPO.load(tmp_path / "b" / "model.zip", device="cpu")
+    np.testing.assert_array_equal(
+        tuned.policy.features_extractor.scale.numpy(),
+        source.policy.features_extractor.scale.numpy(),
+    )
+    run = json.loads((tmp_path / "b" / "run.json").read_text())
+    assert run["init_from"]["run"]["env_kwargs"] == {}
+    assert run["env_kwargs"]["arm"] == "kinematic"
+    joints = [*common, "--env-id", "panda_rapier/PickAndPlaceJointsDense-v0"]
+    assert main([*joints, "--out", str(tmp_path / "c"),
+                 "--init-from", str(tmp_path / "a" / "model.zip")]) == 2  # fmt: skip
+    assert main([*common, "--out", str(tmp_path / "d"), "--init-from", "none.zip"]) == 2
+
+
 def test_recipes_are_rl_zoo3_files_and_bad_ones_are_refused(tmp_path: Path) -> None:
     recipe = load_recipe("ppo", "panda_rapier/PickAndPlaceDense-v0")
     assert recipe["policy"] == "MultiInputPolicy" and "NormalizedFlatten" in recipe["policy_kwargs"]

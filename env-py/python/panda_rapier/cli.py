@@ -202,6 +202,14 @@ def _parser() -> argparse.ArgumentParser:
     )
     train.add_argument("--resume", action="store_true", help="continue the run in OUT")
     train.add_argument(
+        "--init-from",
+        type=Path,
+        default=None,
+        metavar="MODEL.zip",
+        help="start from this model's weights (and observation normaliser) instead of a "
+        "fresh network: fine-tuning, e.g. on another arm model or from a cloned policy",
+    )
+    train.add_argument(
         "--threads", type=_positive, default=None, help="environment threads (default: all)"
     )
     train.add_argument(
@@ -338,6 +346,7 @@ def _run_train(args: argparse.Namespace) -> int:
         eval_episodes=args.eval_episodes,
         checkpoint_every=args.checkpoint_every,
         resume=args.resume,
+        init_from=args.init_from,
         torch_threads=args.torch_threads,
         progress=not args.quiet,
         command=["panda-rapier", *args.argv],

@@ -371,6 +371,7 @@ def train(
     eval_episodes: int = 100,
     checkpoint_every: int | None = None,
     resume: bool = False,
+    init_from: str | Path | None = None,
     torch_threads: int = 1,
     progress: bool = True,
     command: list[str] | None = None,
@@ -378,7 +379,10 @@ def train(
 ) -> dict[str, Any]:
     """Trains ``algo`` on ``env_id`` with its recipe and writes the run to ``out`` (see the
     module's documentation); returns the run record. ``timesteps`` and ``n_envs`` override
-    the recipe's; ``env_kwargs`` are added to the recipe's environment options."""
+    the recipe's; ``env_kwargs`` are added to the recipe's environment options. ``init_from``
+    (a model saved by this algorithm, with the same observation and action spaces) gives the
+    network its starting weights, observation normaliser included: fine-tuning. The run record
+    keeps that model's own run record, so its training time can be added up."""
     import torch as th
 
     if env_id not in ENV_IDS:
@@ -420,7 +424,15 @@ def train(
     if resume:
         run["command"] = previous.get("command", run["command"])
         run["resumed_with"] = [*previous.get("resumed_with", []), command or sys.argv]
+    if init_from is not None:
+        if resume:
+            raise InvalidArgumentError("--init-from starts a new run; it cannot be resumed into")
+        if not Path(init_from).is_file():
+            raise InvalidArgumentError(f"--init-from: no model at {init_from}")
+        run["init_from"] = {"path": str(init_from), "run": read_run_info(init_from)}
     if algo == "bc":
+        if init_from is not None:
+            raise InvalidArgumentError("bc runs start from the scripted expert, not --init-from")
         if resume or timesteps is not None:
             raise InvalidArgumentError(
                 "bc runs are short and are not resumed; their length is the recipe's "
@@ -467,6 +479,9 @@ def train(
             verbose=0,
             **model_kwargs(algo, recipe),
         )
+        if init_from is not None:
+            _load_weights(model, algorithm, Path(init_from))
+            say(f"starting from the weights of {init_from}")
     recorder = _Recorder(
         out, config, run, eval_episodes, num_threads, float(state["wall_time_s"]), say
     )
@@ -494,6 +509,24 @@ def train(
     if remaining > 0:
         callbacks[-1].save_checkpoint()  # a later --resume with more --timesteps goes on
     return run
+
+
+def _load_weights(model: Any, algorithm: Any, path: Path) -> None:
+    """Copies the policy weights (normaliser buffers included) of the model at ``path`` into
+    ``model``; different spaces or architectures are an :class:`InvalidArgumentError`."""
+    source = algorithm.load(path, device="cpu")
+    for what in ("observation_space", "action_space"):
+        if getattr(source, what) != getattr(model, what):
+            raise InvalidArgumentError(
+                f"--init-from {path}: its {what.replace('_', ' ')} {getattr(source, what)} "
+                f"differs from this environment's {getattr(model, what)}"
+            )
+    try:
+        model.policy.load_state_dict(source.policy.state_dict())
+    except RuntimeError as error:
+        raise InvalidArgumentError(
+            f"--init-from {path}: its network does not match the recipe's: {error}"
+        ) from error
 
 
 def _cpu_count() -> int:
