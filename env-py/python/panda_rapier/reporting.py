@@ -35,8 +35,11 @@ def run_label(run: dict[str, Any]) -> str:
     env = str(run.get("env_id", "?")).split("/")[-1]
     options = dict(run.get("env_kwargs") or {})
     arm = options.pop("arm", "dynamic")
+    weights = options.pop("reward_weights", None) or {}  # shown as term=weight
+    options.update({str(k): v for k, v in dict(weights).items()})
     extra = ", ".join(f"{k}={v}" for k, v in sorted(options.items()))
-    return f"{run.get('algo', '?')} {env} ({arm} arm{', ' + extra if extra else ''})"
+    tuned = ", fine-tuned" if run.get("init_from") else ""
+    return f"{run.get('algo', '?')} {env} ({arm} arm{tuned}{', ' + extra if extra else ''})"
 
 
 def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) -> None:
@@ -44,7 +47,8 @@ def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) 
     evaluations, against env steps and against wall-clock minutes of training. ``reference``:
     a JSON list of ``{"label", "env_steps_per_s"}`` (another recipe's measured training
     throughput on the same machine), drawn on the steps axis at the step count it reaches in
-    the longest run's wall time."""
+    the longest run's wall time. A fine-tuning run (``--init-from``) is drawn after the steps
+    and minutes of the model it started from, so its curve shows the whole cost."""
     try:
         import matplotlib
 
@@ -58,8 +62,11 @@ def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) 
         lines = _evaluations(Path(run_dir))
         run = json.loads((Path(run_dir) / "run.json").read_text())
         color = f"C{index}"
-        steps = [line["env_steps"] for line in lines]
-        minutes = [line["wall_time_s"] / 60 for line in lines]
+        source = (run.get("init_from") or {}).get("run") or {}
+        step0 = int(source.get("env_steps", 0))
+        minute0 = float(source.get("wall_time_s", 0.0)) / 60
+        steps = [step0 + line["env_steps"] for line in lines]
+        minutes = [minute0 + line["wall_time_s"] / 60 for line in lines]
         longest = max(longest, max(minutes, default=0.0))
         success = [line["success_rate"] for line in lines]
         low = [line["success_ci95"][0] for line in lines]
@@ -135,15 +142,26 @@ def models_table(
         }
         low, high = summary["success_ci95"]
         options = json.dumps(run.get("env_kwargs") or {}, sort_keys=True)
+        # A fine-tuned model's cost includes the model it started from.
+        source = (run.get("init_from") or {}).get("run") or {}
+        env_steps = run["env_steps"] + int(source.get("env_steps", 0))
+        wall_time = run["wall_time_s"] + float(source.get("wall_time_s", 0.0))
         rows.append(
             f"| `{model.name}` | {run['algo']} | `{run['env_id']}` | `{options}` "
-            f"| {run['env_steps']:,} | {run['wall_time_s'] / 60:.1f} "
+            f"| {env_steps:,} | {wall_time / 60:.1f} "
             f"| {summary['success_rate']:.3f} ({low:.3f}-{high:.3f}) "
             f"| {summary['placed_rate']:.3f} |"
         )
+        steps = [f"`{shlex.join(run['command'])}`, then copy `{_out_of(run['command'])}/"
+                 f"{_saved_as(run)}` here as `{model.name}`"]  # fmt: skip
+        if source:
+            steps.insert(0, f"`{shlex.join(source['command'])}` (its `{_saved_as(source)}` is "
+                            f"the `--init-from` model: {source.get('env_steps', 0):,} steps, "
+                            f"{float(source.get('wall_time_s', 0)) / 60:.1f} min, included in "
+                            "the row)")  # fmt: skip
         commands.append(
-            f"- `{model.name}`: `{shlex.join(run['command'])}`, then copy "
-            f"`{_out_of(run['command'])}/model.zip` here as `{model.name}`"
+            f"- `{model.name}`: "
+            + "; then ".join(steps)
             + (f" ({run['note']})" if run.get("note") else "")
         )
     header = (
@@ -161,6 +179,12 @@ def models_table(
     )
     text = header + "\n".join(rows) + "\n\n## Reproduce\n\n" + "\n".join(commands) + "\n"
     return text, records
+
+
+def _saved_as(run: dict[str, Any]) -> str:
+    """Which file of its run directory a model is: ``best.zip`` (the best periodic
+    evaluation's, whose record holds that evaluation) or ``model.zip``."""
+    return "best.zip" if "evaluation" in run else "model.zip"
 
 
 def _out_of(command: Sequence[str]) -> str:
