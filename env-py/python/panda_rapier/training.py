@@ -27,6 +27,9 @@ Seeds: the training environments and the expert's demonstrations are seeded from
 ``TRAIN_FIRST_SEED + 1_000_000 * seed`` (a resumed run's environments from that plus the
 steps already done), periodic evaluations use ``VALIDATION_FIRST_SEED`` onwards, and the
 final test (``panda-rapier eval``) seeds ``0, 1, ...``.
+
+Over 600 lines: recipes, the SB3 run loop with evaluation/checkpoints/resume/--init-from and
+the bc run live together; moving the bc run into :mod:`.imitation` is the planned split.
 """
 
 from __future__ import annotations
