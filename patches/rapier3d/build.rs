@@ -1,0 +1,705 @@
+//! Build script of our stand-in for the crates.io package `rapier3d` 0.36.1: it turns the
+//! pristine published crate plus our patch into the source tree this package compiles.
+//!
+//! # Why
+//!
+//! We carry a change to rapier3d 0.36.1. The repository holds no copy of rapier's source, only
+//! a patch file; the root `Cargo.toml` points `[patch.crates-io] rapier3d` at this package, and
+//! this script rebuilds the patched crate at build time. Nothing is needed beyond a normal
+//! `cargo build`, `cargo test`, `pip install .` or `pip wheel .`, even on a fresh clone.
+//!
+//! # What it does, each time it runs
+//!
+//! 1. **Finds the pristine `rapier3d-0.36.1.crate`** (the gzipped tarball crates.io serves) and
+//!    checks its sha256 against [`SHA256`] (the checksum crates.io publishes, as recorded in
+//!    Cargo.lock before the patch). A file with another checksum is never used. In order:
+//!    - the file named by the environment variable `PANDA_RAPIER_RAPIER3D_CRATE`, if set (an
+//!      escape hatch for machines without network or registry cache; a wrong file is an error);
+//!    - cargo's download cache, `$CARGO_HOME/registry/cache/*/rapier3d-0.36.1.crate`
+//!      (`CARGO_HOME` is set by rustup for everything it runs; else `$HOME/.cargo`), whatever
+//!      registry or mirror it came from;
+//!    - an earlier download of this script, `$OUT_DIR/download/rapier3d-0.36.1.crate`;
+//!    - otherwise it asks cargo to download it: it writes a throwaway manifest depending on
+//!      `rapier3d = "=0.36.1"` into `$OUT_DIR/fetch/` (with its own `[workspace]`) and runs
+//!      `$CARGO fetch --manifest-path ... --target $TARGET` (`--offline` when
+//!      `CARGO_NET_OFFLINE` is true), which honours the user's registry, mirror, proxy and
+//!      offline configuration and fills the cache above, then looks there again. The outer
+//!      cargo does not hold the package-cache lock while build scripts run (tested with cargo
+//!      1.95 on an empty `CARGO_HOME`), so this does not deadlock; a watchdog still kills it
+//!      after [`FETCH_TIMEOUT`];
+//!    - last, `curl` downloads it from [`DOWNLOAD_URL`] into `$OUT_DIR/download/`.
+//!
+//!    If all of that fails the build stops with a message listing what was tried.
+//! 2. **Extracts** it into `$OUT_DIR/rapier3d-0.36.1/` (deleting an earlier extraction first).
+//! 3. **Applies `rapier3d-0.36.1.patch`** (next to this script): a unified diff as written by
+//!    `git diff` in a git repository whose root is the pristine crate (paths `a/src/...`,
+//!    `b/src/...`; the first path component is stripped, like `patch -p1`), preceded by a
+//!    free-text header: everything before the first `diff --git` line (or the first `--- `
+//!    line followed by a `+++ ` line, for a plain `diff -u`) is the header and ignored. A patch
+//!    that is only a header changes nothing. Every file is parsed and applied with `diffy`
+//!    (modified, created `--- /dev/null`, deleted `+++ /dev/null`, renamed and copied files);
+//!    a hunk whose context and removed lines are not in the pristine file fails the build,
+//!    naming the file and the hunk. Binary diffs are refused. Only `src/` is compiled: our
+//!    `Cargo.toml` replaces rapier's, so dependency changes go there, not into the patch.
+//! 4. **Generates the crate root.** `src/lib.rs` is `include!`d by our own `src/lib.rs`, and an
+//!    `include!`d file may not contain inner attributes or inner doc comments. So the leading
+//!    `//!` lines of the patched `src/lib.rs` go to `$OUT_DIR/rapier3d-0.36.1/crate-doc.md`
+//!    (our `src/lib.rs` uses it as the crate docs), and its leading `#![...]` attributes are
+//!    removed; each removed line is blanked, so line numbers in compiler messages stay right.
+//!    Inner attributes can only appear there, at the top of the file, so nothing else needs
+//!    moving; `mod foo;` declarations in the generated file resolve next to it, in
+//!    `$OUT_DIR/rapier3d-0.36.1/src/`. The removed attributes must be exactly the ones listed
+//!    between the `BEGIN`/`END` marker comments of our `src/lib.rs`, which declares them for
+//!    the crate; if a patch changes them, the build stops and says what to update.
+//!
+//! It reruns when this file, the patch, our `src/lib.rs` or `PANDA_RAPIER_RAPIER3D_CRATE`
+//! changes. See ../README.md for how to write or regenerate the patch.
+
+use std::env;
+use std::ffi::OsString;
+use std::fmt::Write as _;
+use std::fs;
+use std::io::{self, Read};
+use std::path::{Component, Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use diffy::patch_set::{FileOperation, ParseOptions, PatchKind, PatchSet};
+use sha2::{Digest, Sha256};
+
+/// Version of the published crate we patch; must match `version` in our Cargo.toml.
+const VERSION: &str = "0.36.1";
+/// sha256 of `rapier3d-0.36.1.crate` as published on crates.io (its Cargo.lock checksum).
+const SHA256: &str = "033e2edc815d61ab97bd74ed5d1cbea5ebe575218774a7cfedbd3551f0033317";
+/// The published file's name, as in cargo's download cache.
+const CRATE_FILE: &str = "rapier3d-0.36.1.crate";
+/// The single top-level directory of the published tarball; also the extraction directory.
+const TOP_DIR: &str = "rapier3d-0.36.1";
+/// Our patch, relative to this package's directory.
+const PATCH_FILE: &str = "rapier3d-0.36.1.patch";
+/// Our crate root, relative to this package's directory.
+const OUR_LIB_RS: &str = "src/lib.rs";
+/// Environment variable naming a `rapier3d-0.36.1.crate` to use instead of looking for one.
+const CRATE_ENV: &str = "PANDA_RAPIER_RAPIER3D_CRATE";
+/// crates.io's download address for the file, used by the `curl` fallback.
+const DOWNLOAD_URL: &str = "https://static.crates.io/crates/rapier3d/rapier3d-0.36.1.crate";
+/// How long the nested `cargo fetch` may take before it is killed.
+const FETCH_TIMEOUT: Duration = Duration::from_secs(15 * 60);
+/// Marker comments around the crate attributes in our `src/lib.rs`.
+const ATTRS_BEGIN: &str = "// BEGIN rapier3d crate attributes";
+const ATTRS_END: &str = "// END rapier3d crate attributes";
+
+fn main() {
+    println!("cargo::rerun-if-changed=build.rs");
+    println!("cargo::rerun-if-changed={PATCH_FILE}");
+    println!("cargo::rerun-if-changed={OUR_LIB_RS}");
+    println!("cargo::rerun-if-env-changed={CRATE_ENV}");
+
+    let manifest_dir = PathBuf::from(required_env("CARGO_MANIFEST_DIR"));
+    let out_dir = PathBuf::from(required_env("OUT_DIR"));
+
+    let tarball = pristine_crate(&manifest_dir, &out_dir);
+    let root = out_dir.join(TOP_DIR);
+    extract(&tarball, &out_dir, &root);
+    apply_patch(&manifest_dir.join(PATCH_FILE), &root);
+    generate_crate_root(&root, &manifest_dir.join(OUR_LIB_RS));
+}
+
+fn required_env(name: &str) -> OsString {
+    env::var_os(name).unwrap_or_else(|| panic!("cargo did not set {name} for the build script"))
+}
+
+// ---------------------------------------------------------------------------------------------
+// 1. The pristine crate
+// ---------------------------------------------------------------------------------------------
+
+/// The verified bytes of `rapier3d-0.36.1.crate`, found or downloaded as the module docs say.
+fn pristine_crate(manifest_dir: &Path, out_dir: &Path) -> Vec<u8> {
+    if let Some(path) = env::var_os(CRATE_ENV).filter(|p| !p.is_empty()) {
+        let path = PathBuf::from(path);
+        return read_verified(&path).unwrap_or_else(|e| {
+            panic!(
+                "{CRATE_ENV} names {}, which cannot be used: {e}",
+                path.display()
+            )
+        });
+    }
+
+    let mut tried = Vec::new();
+    let cache = cargo_home().map(|home| home.join("registry").join("cache"));
+    if let Some(bytes) = from_registry_cache(cache.as_deref(), &mut tried) {
+        return bytes;
+    }
+    let downloaded = out_dir.join("download").join(CRATE_FILE);
+    if downloaded.is_file() {
+        match read_verified(&downloaded) {
+            Ok(bytes) => return bytes,
+            Err(e) => tried.push(format!("an earlier download: {e}")),
+        }
+    }
+
+    match cargo_fetch(manifest_dir, out_dir) {
+        Ok(()) => {
+            if let Some(bytes) = from_registry_cache(cache.as_deref(), &mut tried) {
+                return bytes;
+            }
+            tried.push(format!(
+                "`cargo fetch` succeeded, but left no {CRATE_FILE} in cargo's download cache \
+                 (a vendored or local-registry source replacement keeps none)"
+            ));
+        }
+        Err(e) => tried.push(format!("`cargo fetch` of rapier3d {VERSION}: {e}")),
+    }
+
+    match curl(&downloaded).and_then(|()| read_verified(&downloaded)) {
+        Ok(bytes) => return bytes,
+        Err(e) => tried.push(format!("`curl` from {DOWNLOAD_URL}: {e}")),
+    }
+
+    panic!(
+        "cannot get the pristine {CRATE_FILE} (sha256 {SHA256}), which patches/rapier3d builds \
+         our patched rapier3d from.\nTried:\n  - {}\nFix: let cargo reach its registry (check \
+         network, proxy and registry configuration, or drop --offline once), or download the \
+         file yourself from {DOWNLOAD_URL} and set {CRATE_ENV} to its path.",
+        tried.join("\n  - ")
+    );
+}
+
+/// Cargo's home: `$CARGO_HOME` (rustup sets it for the tools it runs), else `~/.cargo`.
+fn cargo_home() -> Option<PathBuf> {
+    if let Some(home) = env::var_os("CARGO_HOME").filter(|h| !h.is_empty()) {
+        return Some(PathBuf::from(home));
+    }
+    ["HOME", "USERPROFILE"]
+        .iter()
+        .filter_map(env::var_os)
+        .find(|h| !h.is_empty())
+        .map(|h| PathBuf::from(h).join(".cargo"))
+}
+
+/// The first verified `registry/cache/*/rapier3d-0.36.1.crate`, in name order.
+fn from_registry_cache(cache: Option<&Path>, tried: &mut Vec<String>) -> Option<Vec<u8>> {
+    let Some(cache) = cache else {
+        tried.push("cargo's download cache: neither CARGO_HOME nor HOME is set".to_owned());
+        return None;
+    };
+    let mut candidates: Vec<PathBuf> = match fs::read_dir(cache) {
+        Ok(dirs) => dirs
+            .filter_map(Result::ok)
+            .map(|dir| dir.path().join(CRATE_FILE))
+            .filter(|file| file.is_file())
+            .collect(),
+        Err(_) => Vec::new(),
+    };
+    candidates.sort();
+    if candidates.is_empty() {
+        tried.push(format!(
+            "cargo's download cache: no {}/*/{CRATE_FILE}",
+            cache.display()
+        ));
+    }
+    for file in candidates {
+        match read_verified(&file) {
+            Ok(bytes) => return Some(bytes),
+            Err(e) => {
+                println!("cargo::warning=skipping {}: {e}", file.display());
+                tried.push(e);
+            }
+        }
+    }
+    None
+}
+
+/// The file's bytes if their sha256 is [`SHA256`].
+fn read_verified(path: &Path) -> Result<Vec<u8>, String> {
+    let bytes = fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let digest = Sha256::digest(&bytes);
+    let hex = digest.iter().fold(String::new(), |mut hex, byte| {
+        let _ = write!(hex, "{byte:02x}");
+        hex
+    });
+    if hex == SHA256 {
+        Ok(bytes)
+    } else {
+        Err(format!(
+            "{} has sha256 {hex}, expected {SHA256}",
+            path.display()
+        ))
+    }
+}
+
+/// Runs `$CARGO fetch` on a throwaway manifest that depends on exactly rapier3d 0.36.1.
+fn cargo_fetch(manifest_dir: &Path, out_dir: &Path) -> Result<(), String> {
+    let dir = out_dir.join("fetch");
+    let io_err = |e: io::Error| format!("cannot prepare {}: {e}", dir.display());
+    fs::create_dir_all(dir.join("src")).map_err(io_err)?;
+    fs::write(dir.join("src").join("lib.rs"), "").map_err(io_err)?;
+    let manifest = dir.join("Cargo.toml");
+    fs::write(
+        &manifest,
+        format!(
+            "# Written by panda_rapier's patches/rapier3d/build.rs, only to make cargo download\n\
+             # the pristine rapier3d {VERSION} into its cache.\n\
+             [package]\nname = \"fetch-pristine-rapier3d\"\nversion = \"0.0.0\"\n\
+             edition = \"2021\"\npublish = false\n\n\
+             [dependencies]\nrapier3d = {{ version = \"={VERSION}\", default-features = false, \
+             features = [\"dim3\", \"f32\"] }}\n\n\
+             # Not part of any enclosing workspace (OUT_DIR lies inside ours).\n[workspace]\n"
+        ),
+    )
+    .map_err(io_err)?;
+    let log_path = dir.join("fetch.log");
+    let log = fs::File::create(&log_path).map_err(io_err)?;
+    let log_err = log.try_clone().map_err(io_err)?;
+
+    let cargo = env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let mut command = Command::new(&cargo);
+    command
+        .arg("fetch")
+        .arg("--manifest-path")
+        .arg(&manifest)
+        // The working directory decides which `.cargo/config.toml` files apply: the project's.
+        .current_dir(manifest_dir)
+        // Keep the nested cargo's own files (lock file, rustc info) away from the outer build.
+        .env("CARGO_TARGET_DIR", dir.join("target"))
+        // A fetch compiles nothing: it needs no share of the outer build's jobserver.
+        .env_remove("CARGO_MAKEFLAGS")
+        .stdin(Stdio::null())
+        .stdout(log)
+        .stderr(log_err);
+    if let Some(target) = env::var_os("TARGET") {
+        command.arg("--target").arg(target);
+    }
+    let offline =
+        env::var("CARGO_NET_OFFLINE").is_ok_and(|v| !matches!(v.trim(), "" | "0" | "false"));
+    if offline {
+        command.arg("--offline");
+    }
+
+    let mut child = command
+        .spawn()
+        .map_err(|e| format!("cannot run {}: {e}", cargo.to_string_lossy()))?;
+    let started = Instant::now();
+    let status = loop {
+        match child.try_wait() {
+            Ok(Some(status)) => break status,
+            Ok(None) if started.elapsed() > FETCH_TIMEOUT => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err(format!(
+                    "timed out after {} s; its output:\n{}",
+                    FETCH_TIMEOUT.as_secs(),
+                    log_tail(&log_path)
+                ));
+            }
+            Ok(None) => thread::sleep(Duration::from_millis(100)),
+            Err(e) => return Err(format!("cannot wait for cargo: {e}")),
+        }
+    };
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("{status}; its output:\n{}", log_tail(&log_path)))
+    }
+}
+
+/// The last lines of a log file, indented, for error messages.
+fn log_tail(path: &Path) -> String {
+    let text = fs::read_to_string(path).unwrap_or_default();
+    let lines: Vec<&str> = text.lines().collect();
+    let start = lines.len().saturating_sub(20);
+    lines[start..]
+        .iter()
+        .map(|line| format!("      {line}"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Downloads [`DOWNLOAD_URL`] to `dest` with the `curl` command.
+fn curl(dest: &Path) -> Result<(), String> {
+    let dir = dest.parent().expect("the download path has a directory");
+    fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let partial = dest.with_extension("crate.part");
+    let output = Command::new("curl")
+        .args(["--fail", "--location", "--silent", "--show-error"])
+        .args(["--retry", "3", "--connect-timeout", "30", "--output"])
+        .arg(&partial)
+        .arg(DOWNLOAD_URL)
+        .stdin(Stdio::null())
+        .output()
+        .map_err(|e| format!("cannot run curl: {e}"))?;
+    if !output.status.success() {
+        let _ = fs::remove_file(&partial);
+        return Err(format!(
+            "curl {}: {}",
+            output.status,
+            String::from_utf8_lossy(&output.stderr).trim()
+        ));
+    }
+    fs::rename(&partial, dest).map_err(|e| format!("cannot move the download: {e}"))
+}
+
+// ---------------------------------------------------------------------------------------------
+// 2. Extraction
+// ---------------------------------------------------------------------------------------------
+
+/// Unpacks the gzipped tarball into `out_dir`; all of it lies under `root` (`out_dir/TOP_DIR`).
+fn extract(tarball: &[u8], out_dir: &Path, root: &Path) {
+    if root.exists() {
+        fs::remove_dir_all(root)
+            .unwrap_or_else(|e| panic!("cannot delete the old {}: {e}", root.display()));
+    }
+    let mut archive = tar::Archive::new(flate2::read::GzDecoder::new(tarball));
+    let entries = archive
+        .entries()
+        .unwrap_or_else(|e| panic!("{CRATE_FILE} is not a gzipped tarball: {e}"));
+    for entry in entries {
+        let mut entry = entry.unwrap_or_else(|e| panic!("cannot read {CRATE_FILE}: {e}"));
+        let path = entry
+            .path()
+            .unwrap_or_else(|e| panic!("{CRATE_FILE} holds an unreadable path: {e}"))
+            .into_owned();
+        assert!(
+            path.components().next() == Some(Component::Normal(TOP_DIR.as_ref())),
+            "{CRATE_FILE} holds {}, outside {TOP_DIR}/",
+            path.display()
+        );
+        let unpacked = entry
+            .unpack_in(out_dir)
+            .unwrap_or_else(|e| panic!("cannot extract {}: {e}", path.display()));
+        assert!(
+            unpacked,
+            "{CRATE_FILE} holds an unsafe path, {}",
+            path.display()
+        );
+    }
+    assert!(
+        root.join("src").join("lib.rs").is_file(),
+        "{CRATE_FILE} has no {TOP_DIR}/src/lib.rs"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// 3. The patch
+// ---------------------------------------------------------------------------------------------
+
+/// Applies the patch at `patch_path` to the tree at `root`, as the module docs describe.
+fn apply_patch(patch_path: &Path, root: &Path) {
+    let name = patch_path.display();
+    let mut text = String::new();
+    fs::File::open(patch_path)
+        .and_then(|mut f| f.read_to_string(&mut text))
+        .unwrap_or_else(|e| panic!("cannot read {name} (it must be UTF-8 text): {e}"));
+
+    let Some(start) = diff_start(&text) else {
+        // Only a header: nothing to change. A stray hunk would be silently lost, so refuse it.
+        if let Some(line) = text.lines().position(|l| l.starts_with("@@ ")) {
+            panic!(
+                "{name}:{}: a hunk (`@@ ... @@`) before any `diff --git` or `--- `/`+++ ` file \
+                 header; the patch is malformed",
+                line + 1
+            );
+        }
+        return;
+    };
+    let first_line = text[..start].lines().count() + 1;
+    let body = &text[start..];
+    let options = if body.starts_with("diff --git ") {
+        ParseOptions::gitdiff()
+    } else {
+        ParseOptions::unidiff()
+    };
+
+    for file in PatchSet::parse(body, options) {
+        let file = file.unwrap_or_else(|e| {
+            panic!("cannot parse {name} ({e}; byte offsets count from line {first_line})")
+        });
+        let operation = file.operation().strip_prefix(1);
+        let changed = match &operation {
+            FileOperation::Modify { modified: path, .. }
+            | FileOperation::Rename { to: path, .. }
+            | FileOperation::Copy { to: path, .. }
+            | FileOperation::Create(path)
+            | FileOperation::Delete(path) => path,
+        };
+        if !changed.starts_with("src/") {
+            println!(
+                "cargo::warning=the rapier3d patch changes `{changed}`, which is not compiled: \
+                 only src/ is, and patches/rapier3d/Cargo.toml replaces rapier's manifest"
+            );
+        }
+        let patch = match file.patch() {
+            PatchKind::Text(patch) => patch,
+            PatchKind::Binary(_) => panic!(
+                "{name}: binary diff for {operation:?} is not supported; patch only text files"
+            ),
+        };
+        let apply = |path: &str, base: &str| {
+            diffy::apply(base, patch).unwrap_or_else(|e| {
+                panic!(
+                    "{name} does not apply to the pristine rapier3d {VERSION}: {} of `{path}` \
+                     is not found in that file (its context and removed lines must match it \
+                     exactly).\nRegenerate the patch against the pristine crate, as \
+                     patches/README.md describes.",
+                    describe_hunk(&e, patch),
+                )
+            })
+        };
+        match operation {
+            FileOperation::Modify { original, modified } => {
+                let result = apply(&original, &read_source(root, &original));
+                write_source(root, &modified, &result);
+                if original != modified {
+                    remove_source(root, &original);
+                }
+            }
+            FileOperation::Rename { from, to } => {
+                let result = apply(&from, &read_source(root, &from));
+                write_source(root, &to, &result);
+                remove_source(root, &from);
+            }
+            FileOperation::Copy { from, to } => {
+                let result = apply(&from, &read_source(root, &from));
+                write_source(root, &to, &result);
+            }
+            FileOperation::Create(path) => {
+                let target = source_path(root, &path);
+                assert!(
+                    !target.exists(),
+                    "{name} creates `{path}`, which the pristine crate already has"
+                );
+                write_source(root, &path, &apply(&path, ""));
+            }
+            FileOperation::Delete(path) => {
+                let result = apply(&path, &read_source(root, &path));
+                assert!(
+                    result.is_empty(),
+                    "{name} deletes `{path}` but does not remove all of its lines"
+                );
+                remove_source(root, &path);
+            }
+        }
+    }
+}
+
+/// Byte offset of the first file header: a `diff --git` line, or a `--- ` line directly
+/// followed by a `+++ ` line. Everything before it is the patch's free-text header.
+fn diff_start(text: &str) -> Option<usize> {
+    let mut offset = 0;
+    let mut lines = text.split_inclusive('\n').peekable();
+    while let Some(line) = lines.next() {
+        if line.starts_with("diff --git ")
+            || (line.starts_with("--- ") && lines.peek().is_some_and(|l| l.starts_with("+++ ")))
+        {
+            return Some(offset);
+        }
+        offset += line.len();
+    }
+    None
+}
+
+/// "hunk #N (@@ -a,b +c,d @@)" from diffy's "error applying hunk #N".
+fn describe_hunk(error: &diffy::ApplyError, patch: &diffy::Patch<'_, str>) -> String {
+    let message = error.to_string();
+    let hunk = message
+        .rsplit('#')
+        .next()
+        .and_then(|n| n.trim().parse::<usize>().ok())
+        .and_then(|n| Some((n, patch.hunks().get(n.checked_sub(1)?)?)));
+    match hunk {
+        Some((n, hunk)) => {
+            let (old, new) = (hunk.old_range(), hunk.new_range());
+            format!(
+                "hunk #{n} (@@ -{},{} +{},{} @@)",
+                old.start(),
+                old.len(),
+                new.start(),
+                new.len()
+            )
+        }
+        None => message,
+    }
+}
+
+/// `root/path` for a path from the patch, refusing absolute paths and `..`.
+fn source_path(root: &Path, path: &str) -> PathBuf {
+    let relative = Path::new(path);
+    let safe = !path.is_empty()
+        && relative
+            .components()
+            .all(|c| matches!(c, Component::Normal(_)));
+    assert!(
+        safe,
+        "the patch names `{path}`, which is not a path inside the crate"
+    );
+    root.join(relative)
+}
+
+fn read_source(root: &Path, path: &str) -> String {
+    let file = source_path(root, path);
+    fs::read_to_string(&file).unwrap_or_else(|e| {
+        panic!("the patch changes `{path}`, which the pristine crate does not have as text: {e}")
+    })
+}
+
+fn write_source(root: &Path, path: &str, contents: &str) {
+    let file = source_path(root, path);
+    if let Some(dir) = file.parent() {
+        fs::create_dir_all(dir).unwrap_or_else(|e| panic!("cannot create {}: {e}", dir.display()));
+    }
+    fs::write(&file, contents).unwrap_or_else(|e| panic!("cannot write {}: {e}", file.display()));
+}
+
+fn remove_source(root: &Path, path: &str) {
+    let file = source_path(root, path);
+    fs::remove_file(&file).unwrap_or_else(|e| panic!("cannot delete {}: {e}", file.display()));
+}
+
+// ---------------------------------------------------------------------------------------------
+// 4. The crate root
+// ---------------------------------------------------------------------------------------------
+
+/// Moves the leading inner doc comments and inner attributes out of `root/src/lib.rs` (see the
+/// module docs) and checks the attributes against those our `src/lib.rs` declares.
+fn generate_crate_root(root: &Path, our_lib_rs: &Path) {
+    let lib_rs = root.join("src").join("lib.rs");
+    let source = fs::read_to_string(&lib_rs)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", lib_rs.display()));
+    let lines: Vec<&str> = source.split_inclusive('\n').collect();
+
+    let mut docs = Vec::new();
+    let mut attributes = Vec::new();
+    let mut generated = String::with_capacity(source.len());
+    let mut i = 0;
+    while i < lines.len() {
+        let line = lines[i].trim();
+        if let Some(doc) = line.strip_prefix("//!") {
+            docs.push(doc);
+            generated.push('\n');
+            i += 1;
+        } else if line.is_empty() || (line.starts_with("//") && !line.starts_with("///")) {
+            generated.push_str(lines[i]);
+            i += 1;
+        } else if line.starts_with("#![") {
+            let (attribute, end) = inner_attribute(&lines, i)
+                .unwrap_or_else(|| panic!("{}:{}: unterminated `#![`", lib_rs.display(), i + 1));
+            attributes.push(attribute);
+            for _ in i..end {
+                generated.push('\n');
+            }
+            i = end;
+        } else if line.starts_with("/*") {
+            panic!(
+                "{}:{}: block comments before the first item of rapier's lib.rs are not \
+                 supported by patches/rapier3d/build.rs; use line comments",
+                lib_rs.display(),
+                i + 1
+            );
+        } else {
+            break;
+        }
+    }
+    for line in &lines[i..] {
+        generated.push_str(line);
+    }
+
+    check_declared_attributes(&attributes, our_lib_rs);
+
+    // `//! text` is the doc line " text": drop that one conventional space.
+    let unindent = docs.iter().all(|d| d.is_empty() || d.starts_with(' '));
+    let mut doc = String::new();
+    for line in docs {
+        doc.push_str(if unindent {
+            line.strip_prefix(' ').unwrap_or(line)
+        } else {
+            line
+        });
+        doc.push('\n');
+    }
+    let doc_path = root.join("crate-doc.md");
+    fs::write(&doc_path, doc)
+        .unwrap_or_else(|e| panic!("cannot write {}: {e}", doc_path.display()));
+    fs::write(&lib_rs, generated)
+        .unwrap_or_else(|e| panic!("cannot write {}: {e}", lib_rs.display()));
+}
+
+/// The inner attribute starting at `lines[start]` (without any comment after it), and the index
+/// of the line after it; brackets inside string literals are skipped.
+fn inner_attribute(lines: &[&str], start: usize) -> Option<(String, usize)> {
+    let mut attribute = String::new();
+    let mut depth = 0usize;
+    let mut in_string = false;
+    let mut escaped = false;
+    for (index, line) in lines.iter().enumerate().skip(start) {
+        for c in line.trim_start().chars() {
+            attribute.push(c);
+            if in_string {
+                match c {
+                    _ if escaped => escaped = false,
+                    '\\' => escaped = true,
+                    '"' => in_string = false,
+                    _ => {}
+                }
+                continue;
+            }
+            match c {
+                '"' => in_string = true,
+                '[' => depth += 1,
+                ']' => {
+                    depth = depth.checked_sub(1)?;
+                    if depth == 0 {
+                        return Some((attribute, index + 1));
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+    None
+}
+
+/// Panics unless `attributes` are exactly the ones between the markers in our `src/lib.rs`
+/// (compared without whitespace, in order).
+fn check_declared_attributes(attributes: &[String], our_lib_rs: &Path) {
+    let ours = fs::read_to_string(our_lib_rs)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", our_lib_rs.display()));
+    let declared: Option<Vec<String>> = ours
+        .split_once(ATTRS_BEGIN)
+        .and_then(|(_, rest)| rest.split_once(ATTRS_END))
+        .map(|(block, _)| {
+            let lines: Vec<&str> = block.split_inclusive('\n').collect();
+            let mut found = Vec::new();
+            let mut i = 0;
+            while i < lines.len() {
+                if lines[i].trim_start().starts_with("#![") {
+                    match inner_attribute(&lines, i) {
+                        Some((attribute, end)) => {
+                            found.push(attribute);
+                            i = end;
+                        }
+                        None => break,
+                    }
+                } else {
+                    i += 1;
+                }
+            }
+            found
+        });
+    let Some(declared) = declared else {
+        panic!(
+            "{} lacks the `{ATTRS_BEGIN}` ... `{ATTRS_END}` block that build.rs checks",
+            our_lib_rs.display()
+        );
+    };
+    let squash = |s: &String| s.split_whitespace().collect::<String>();
+    let expected: Vec<String> = attributes.iter().map(squash).collect();
+    assert!(
+        declared.iter().map(squash).collect::<Vec<_>>() == expected,
+        "the crate attributes of rapier's (patched) src/lib.rs changed; the generated file \
+         drops them, so {} must declare exactly these between its `{ATTRS_BEGIN}` and \
+         `{ATTRS_END}` lines:\n{}",
+        our_lib_rs.display(),
+        attributes.join("\n")
+    );
+}
