@@ -1,6 +1,8 @@
-//! Speed next to accuracy for solver settings: for each `dt:substeps:iterations[:kinematic]`
-//! given (the control period `dt * substeps` must stay 0.04 s; `kinematic` selects the
-//! kinematic arm), prints env-steps/s of 16 environments on
+//! Speed next to accuracy for solver settings: for each
+//! `dt:substeps:iterations[:kinematic][:substep]` given (the control period `dt * substeps`
+//! must stay 0.04 s; `kinematic` selects the kinematic arm, `substep` rebuilds the arm's mass
+//! matrix after every solver iteration, `solver.multibody_update = "substep"`), prints
+//! env-steps/s of 16 environments on
 //! one thread (random actions), the tutorial grasp's slip and tracking error, the creep of a
 //! held cube under a 0.5 Hz base swing, and the scripted policy's placed rate.
 //!
@@ -13,7 +15,7 @@ use panda_rapier::demo::{self, TutorialSequence};
 use panda_rapier::policies::evaluate;
 use panda_rapier::task::{ControlMode, EnvConfig};
 use panda_rapier::vector::{AutoresetMode, VecEnv};
-use panda_rapier::{ArmModel, SimConfig, Simulation};
+use panda_rapier::{ArmModel, MultibodyUpdate, SimConfig, Simulation};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -76,13 +78,18 @@ fn main() -> panda_rapier::Result<()> {
     println!("settings          env-steps/s  slip carry/max (mm, deg)  track (mm)  creep 2s/10s (mm)  placed ee/joints");
     for spec in &args {
         let parts: Vec<&str> = spec.split(':').collect();
-        let (dt, substeps, iterations, arm) = match parts[..] {
-            [dt, substeps, iterations] => (dt, substeps, iterations, ArmModel::Dynamic),
-            [dt, substeps, iterations, "kinematic"] => {
-                (dt, substeps, iterations, ArmModel::Kinematic)
-            }
-            _ => panic!("expected dt:substeps:iterations[:kinematic], got {spec}"),
+        let [dt, substeps, iterations, ref options @ ..] = parts[..] else {
+            panic!("expected dt:substeps:iterations[:kinematic][:substep], got {spec}");
         };
+        let mut arm = ArmModel::Dynamic;
+        let mut multibody_update = MultibodyUpdate::Step;
+        for option in options {
+            match *option {
+                "kinematic" => arm = ArmModel::Kinematic,
+                "substep" => multibody_update = MultibodyUpdate::Substep,
+                other => panic!("unknown option {other:?} in {spec}"),
+            }
+        }
         let mut config = EnvConfig {
             arm,
             ..EnvConfig::default()
@@ -91,6 +98,7 @@ fn main() -> panda_rapier::Result<()> {
         config.sim.solver.dt = dt.parse().expect("dt");
         config.sim.solver.substeps = substeps.parse().expect("substeps");
         config.sim.solver.solver_iterations = iterations.parse().expect("iterations");
+        config.sim.solver.multibody_update = multibody_update;
         let rate = env_steps_per_second(&config)?;
         let mut sim = Simulation::new(config.sim_config()?)?;
         let plan = TutorialSequence::for_scene(&sim);

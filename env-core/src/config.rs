@@ -29,6 +29,36 @@ pub struct SolverConfig {
     /// Characteristic length of the scene (m): rapier scales its penetration and
     /// prediction tolerances by it, so it is set to the size of the objects handled.
     pub length_unit: f64,
+    /// How often the dynamic arm's mass matrix (and what depends only on its configuration)
+    /// is rebuilt: once per physics step (`"step"`, the default) or after every solver
+    /// iteration (`"substep"`, rapier's own behaviour, several times more expensive).
+    pub multibody_update: MultibodyUpdate,
+}
+
+/// How often the articulated arm's configuration-dependent dynamics (its mass matrix and that
+/// matrix's factorization, the inverse-mass columns of its joint motor and limit rows, its free
+/// accelerations) are refreshed within one physics step. Link poses, Jacobians and joint
+/// motor targets follow every solver iteration in both modes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MultibodyUpdate {
+    /// Once, at the start of each physics step, held for its solver iterations (as rapier
+    /// already holds the arm's contact rows). The grasp, creep and scripted-policy figures
+    /// match `Substep`'s (`docs/benchmarks.md`).
+    #[default]
+    Step,
+    /// After every solver iteration (substep), as stock rapier 0.36.1 does.
+    Substep,
+}
+
+impl MultibodyUpdate {
+    /// The name used in configuration files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            MultibodyUpdate::Step => "step",
+            MultibodyUpdate::Substep => "substep",
+        }
+    }
 }
 
 impl Default for SolverConfig {
@@ -40,6 +70,7 @@ impl Default for SolverConfig {
             contact_natural_frequency: 120.0,
             contact_damping_ratio: 5.0,
             length_unit: 0.1,
+            multibody_update: MultibodyUpdate::Step,
         }
     }
 }

@@ -22,7 +22,8 @@ pub mod task;
 pub mod vector;
 
 pub use config::{
-    ArmModel, CubeConfig, MotorConfig, PlatformConfig, SimConfig, SolverConfig, PANDA_READY,
+    ArmModel, CubeConfig, MotorConfig, MultibodyUpdate, PlatformConfig, SimConfig, SolverConfig,
+    PANDA_READY,
 };
 pub use error::{Error, Result};
 pub use kinematics::{pointing_down, IkOptions, IkReport, IkSolution, IkWorkspace};

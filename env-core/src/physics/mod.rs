@@ -24,7 +24,7 @@ use rapier3d_urdf::{
     UrdfRobot,
 };
 
-use crate::config::{ArmModel, SimConfig, PANDA_READY};
+use crate::config::{ArmModel, MultibodyUpdate, SimConfig, PANDA_READY};
 use crate::error::{ensure_all_finite, ensure_finite, ensure_len, Error, Result};
 use crate::model::{JointType, RobotModel};
 use convert::{pose_from_na, pose_to_na, vec_from_array, vec_from_na, vec_to_na};
@@ -396,6 +396,10 @@ impl Simulation {
         let s = &config.solver;
         p.dt = s.dt as f32;
         p.num_solver_iterations = s.solver_iterations as usize;
+        p.multibody_update = match s.multibody_update {
+            MultibodyUpdate::Step => rapier3d::dynamics::MultibodyUpdate::Step,
+            MultibodyUpdate::Substep => rapier3d::dynamics::MultibodyUpdate::Substep,
+        };
         p.length_unit = s.length_unit as f32;
         p.contact_softness.natural_frequency = s.contact_natural_frequency as f32;
         p.contact_softness.damping_ratio = s.contact_damping_ratio as f32;

@@ -205,7 +205,8 @@ impl Default for TaskThresholds {
 ///       "solver_iterations": 6,
 ///       "contact_natural_frequency": 120.0,
 ///       "contact_damping_ratio": 5.0,
-///       "length_unit": 0.1
+///       "length_unit": 0.1,
+///       "multibody_update": "step"
 ///     },
 ///     "motors": {
 ///       "stiffness": 40000.0,
