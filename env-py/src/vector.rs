@@ -6,7 +6,7 @@ use panda_rapier_core::{AutoresetMode, VecEnv};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::convert::{compute_reward, contiguous, info_columns, ContextColumns};
+use crate::convert::{compute_reward, contiguous, info_columns, info_dict, ContextColumns};
 use crate::env::parse_config;
 use crate::errors::{detached, invalid, to_py, Blame};
 
@@ -184,6 +184,24 @@ impl NativeVecEnv {
                     .collect();
                 info_columns(py, &infos)
             }
+            other => Err(invalid(
+                py,
+                "InvalidArgumentError",
+                format!("which must be 'step' or 'reset', got {other:?}"),
+            )),
+        }
+    }
+
+    /// The same infos as `infos`, as one dict of Python scalars per environment (the form
+    /// stable-baselines3's `VecEnv.step` returns), built here rather than from the columns.
+    #[pyo3(signature = (which = "step"))]
+    fn info_rows<'py>(&self, py: Python<'py>, which: &str) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        match which {
+            "step" => self.vec.infos().map(|info| info_dict(py, info)).collect(),
+            "reset" => (0..self.vec.num_envs())
+                .filter_map(|i| self.vec.reset_info(i).ok())
+                .map(|info| info_dict(py, info))
+                .collect(),
             other => Err(invalid(
                 py,
                 "InvalidArgumentError",

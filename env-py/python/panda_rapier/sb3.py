@@ -12,7 +12,7 @@ Needs the ``sb3`` extra (``pip install "panda-rapier[sb3]"``)::
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -133,7 +133,7 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
         flat = self._native.reset(seeds, None)
         self._reset_seeds()
         self._reset_options()
-        self.reset_infos = _rows(self._native.infos("step"))
+        self.reset_infos = self._native.info_rows("step")
         self._episode_returns[:] = 0.0
         self._episode_lengths[:] = 0
         return _common.split_observation(flat)
@@ -149,12 +149,12 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
         flat, rewards, terminated, truncated = self._native.step(self._actions)
         self._actions = None
         dones = terminated | truncated
-        infos = _rows(self._native.infos("step"))
+        infos = self._native.info_rows("step")
         self._episode_returns += rewards
         self._episode_lengths += 1
         if dones.any():
             finals = _common.split_observation(self._native.final_observations())
-            reset_infos = _rows(self._native.infos("reset"))
+            reset_infos = self._native.info_rows("reset")
             elapsed = round(time.time() - self._start_time, 6)
             for i in np.flatnonzero(dones):
                 info = infos[i]
@@ -227,13 +227,6 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
         frame = tile([self._frame(i) for i in range(self._render_envs)])
         assert self._frames is not None
         return self._frames.output(frame)
-
-
-def _rows(columns: dict[str, np.ndarray]) -> list[dict[str, Any]]:
-    """Per-environment info dicts of Python scalars from the native columns."""
-    keys = list(columns)
-    values: Iterable[list[Any]] = zip(*(columns[key].tolist() for key in keys), strict=True)
-    return [dict(zip(keys, row, strict=True)) for row in values]
 
 
 def make_vec_env(
