@@ -6,7 +6,7 @@ use panda_rapier_core::nalgebra::{Isometry3, Quaternion, UnitQuaternion, Vector3
 use panda_rapier_core::task::{RewardContext, RewardFunction};
 use panda_rapier_core::StepInfo;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyString};
 
 use crate::errors::{invalid, Blame};
 
@@ -53,6 +53,36 @@ pub(crate) fn info_dict<'py>(py: Python<'py>, info: &StepInfo) -> PyResult<Bound
         }
     }
     Ok(dict)
+}
+
+/// The infos of a batch as one dict of Python scalars per environment. The key strings are
+/// made once per call and shared by every dict (making them per dict cost more than the
+/// values: about 1.4 us per dict).
+pub(crate) fn info_dicts<'a, 'py>(
+    py: Python<'py>,
+    infos: impl Iterator<Item = &'a StepInfo>,
+) -> PyResult<Vec<Bound<'py, PyDict>>> {
+    let keys: Vec<Bound<'py, PyString>> = INFO_FIELDS
+        .iter()
+        .map(|field| match field {
+            InfoField::Flag(name, _) | InfoField::Real(name, _) | InfoField::Count(name, _) => {
+                PyString::intern(py, name)
+            }
+        })
+        .collect();
+    infos
+        .map(|info| {
+            let dict = PyDict::new(py);
+            for (key, field) in keys.iter().zip(INFO_FIELDS) {
+                match field {
+                    InfoField::Flag(_, get) => dict.set_item(key, get(info))?,
+                    InfoField::Real(_, get) => dict.set_item(key, get(info))?,
+                    InfoField::Count(_, get) => dict.set_item(key, get(info))?,
+                }
+            }
+            Ok(dict)
+        })
+        .collect()
 }
 
 /// The infos of a batch as one numpy array per key (bool, float64 or int64).

@@ -6,7 +6,7 @@ use panda_rapier_core::{AutoresetMode, VecEnv};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::convert::{compute_reward, contiguous, info_columns, info_dict, ContextColumns};
+use crate::convert::{compute_reward, contiguous, info_columns, info_dicts, ContextColumns};
 use crate::env::parse_config;
 use crate::errors::{detached, invalid, to_py, Blame};
 
@@ -197,11 +197,11 @@ impl NativeVecEnv {
     #[pyo3(signature = (which = "step"))]
     fn info_rows<'py>(&self, py: Python<'py>, which: &str) -> PyResult<Vec<Bound<'py, PyDict>>> {
         match which {
-            "step" => self.vec.infos().map(|info| info_dict(py, info)).collect(),
-            "reset" => (0..self.vec.num_envs())
-                .filter_map(|i| self.vec.reset_info(i).ok())
-                .map(|info| info_dict(py, info))
-                .collect(),
+            "step" => info_dicts(py, self.vec.infos()),
+            "reset" => info_dicts(
+                py,
+                (0..self.vec.num_envs()).filter_map(|i| self.vec.reset_info(i).ok()),
+            ),
             other => Err(invalid(
                 py,
                 "InvalidArgumentError",
