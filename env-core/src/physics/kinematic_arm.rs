@@ -3,6 +3,7 @@
 
 use nalgebra::Isometry3;
 use rapier3d::math::Vector;
+use rapier3d::parry::bounding_volume::BoundingVolume;
 use rapier3d::parry::query::intersection_test;
 
 use super::convert::pose_from_na;
@@ -176,15 +177,22 @@ impl Simulation {
         ) else {
             return false;
         };
+        let scenery = [
+            (floor, floor.compute_aabb()),
+            (platform, platform.compute_aabb()),
+        ];
         self.robot_colliders.iter().any(|&(handle, link)| {
             let Some(collider) = colliders.get(handle) else {
                 return false;
             };
             let local = collider.position_wrt_parent().copied().unwrap_or_default();
             let pose = pose_from_na(&link_poses[link]) * local;
-            [floor, platform].iter().any(|scenery| {
-                // Pairs the collision filter skips (the base standing on the floor) don't count.
+            let aabb = collider.shape().compute_aabb(&pose);
+            scenery.iter().any(|(scenery, scenery_aabb)| {
+                // Pairs the collision filter skips (the base standing on the floor) don't count;
+                // disjoint bounding boxes (most links, most of the time) need no exact test.
                 collider.collision_groups().test(scenery.collision_groups())
+                    && aabb.intersects(scenery_aabb)
                     && intersection_test(
                         &pose,
                         collider.shape(),
