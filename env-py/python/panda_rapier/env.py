@@ -28,10 +28,11 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
     Two fidelity levels: ``arm="dynamic"`` (default) simulates the arm's dynamics: its joints
     are motors with the Panda's torque limits that track the commanded targets against
     gravity, inertia and contacts. ``arm="kinematic"`` (Fetch-style; about as fast as the
-    dynamic arm since the multibody patch) places the arm's links along the commanded joint trajectory
-    (velocity limits, ``sim.motors.kinematic_acceleration``), so they push whatever they touch
-    with unlimited force; the gripper (hand and fingers, with the same coupled force-limited
-    drive) and the cube stay fully dynamic and the grasp is still held by friction alone. A
+    dynamic arm since the multibody patch) places the arm's links along the commanded joint
+    trajectory (velocity limits, ``sim.motors.kinematic_acceleration``), so they push whatever
+    they touch with unlimited force; the gripper (hand and fingers, with the same coupled
+    force-limited drive) and the cube stay fully dynamic and the grasp is still held by
+    friction alone. A
     motion that would take a kinematic arm link into the floor or the platform is refused
     (the arm stops; ``info["arm_blocked"]``).
 
