@@ -44,15 +44,8 @@ const INFO_FIELDS: &[InfoField] = &[
 
 /// The info of one step as a dict of Python scalars.
 pub(crate) fn info_dict<'py>(py: Python<'py>, info: &StepInfo) -> PyResult<Bound<'py, PyDict>> {
-    let dict = PyDict::new(py);
-    for field in INFO_FIELDS {
-        match field {
-            InfoField::Flag(name, get) => dict.set_item(name, get(info))?,
-            InfoField::Real(name, get) => dict.set_item(name, get(info))?,
-            InfoField::Count(name, get) => dict.set_item(name, get(info))?,
-        }
-    }
-    Ok(dict)
+    let mut dicts = info_dicts(py, std::iter::once(info))?;
+    Ok(dicts.remove(0))
 }
 
 /// The infos of a batch as one dict of Python scalars per environment. The key strings are

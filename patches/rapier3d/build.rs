@@ -1,6 +1,10 @@
 //! Build script of our stand-in for the crates.io package `rapier3d` 0.36.1: it turns the
 //! pristine published crate plus our patch into the source tree this package compiles.
 //!
+//! Over 600 lines: one linear procedure (find, verify, extract, patch, generate) with its
+//! documentation; a build script is a single crate root, and modules under a `build/` folder
+//! would only scatter it.
+//!
 //! # Why
 //!
 //! We carry a change to rapier3d 0.36.1. The repository holds no copy of rapier's source, only

@@ -1,4 +1,7 @@
 //! [`PickAndPlaceEnv`]: one environment instance (reset, step, snapshot).
+//!
+//! Over 600 lines: episode drawing, the action controller, observation writing and rewards are
+//! still together here; the architecture issue moves them into a Robot / Task split.
 
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};

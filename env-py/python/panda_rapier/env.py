@@ -32,9 +32,8 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
     trajectory (velocity limits, ``sim.motors.kinematic_acceleration``), so they push whatever
     they touch with unlimited force; the gripper (hand and fingers, with the same coupled
     force-limited drive) and the cube stay fully dynamic and the grasp is still held by
-    friction alone. A
-    motion that would take a kinematic arm link into the floor or the platform is refused
-    (the arm stops; ``info["arm_blocked"]``).
+    friction alone. A motion that would take a kinematic arm link into the floor or the
+    platform is refused (the arm stops; ``info["arm_blocked"]``).
 
     ## Action Space
     ``Box(-1, 1, (4,), float32)`` with ``control_mode="ee"`` (default): TCP displacement x, y, z
