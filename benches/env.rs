@@ -9,7 +9,7 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use panda_rapier::policies::ScriptedPolicy;
 use panda_rapier::task::{
-    ControlMode, EnvConfig, PickAndPlaceEnv, ResetOptions, RewardContext, RewardType,
+    ControlMode, EnvConfig, PandaEnv, ResetOptions, RewardContext, RewardType,
 };
 use panda_rapier::vector::{AutoresetMode, VecEnv};
 use rand::{Rng, SeedableRng};
@@ -29,7 +29,7 @@ fn env_step(c: &mut Criterion) {
             control_mode: mode,
             ..EnvConfig::default()
         };
-        let mut env = PickAndPlaceEnv::new(config).unwrap();
+        let mut env = PandaEnv::new(config).unwrap();
         env.reset(Some(0), &ResetOptions::default()).unwrap();
         let a = env.action_dim();
         let actions = random_actions(a * 1000, 1);
@@ -50,18 +50,14 @@ fn env_step(c: &mut Criterion) {
 
 fn env_reset(c: &mut Criterion) {
     let mut group = c.benchmark_group("env_reset");
-    let mut env = PickAndPlaceEnv::new(EnvConfig::default()).unwrap();
+    let mut env = PandaEnv::new(EnvConfig::default()).unwrap();
     env.reset(Some(0), &ResetOptions::default()).unwrap();
     let options = ResetOptions::default();
     group.bench_function("restore_and_redraw", |b| {
         b.iter(|| env.reset(None, &options).unwrap().is_success)
     });
     group.bench_function("build_new_env", |b| {
-        b.iter(|| {
-            PickAndPlaceEnv::new(EnvConfig::default())
-                .unwrap()
-                .action_dim()
-        })
+        b.iter(|| PandaEnv::new(EnvConfig::default()).unwrap().action_dim())
     });
     group.finish();
 }
@@ -115,11 +111,10 @@ fn compute_reward(c: &mut Criterion) {
             reward_type,
             ..EnvConfig::default()
         };
-        let env = PickAndPlaceEnv::new(config).unwrap();
-        let f = *env.reward_function();
+        let env = PandaEnv::new(config).unwrap();
         group.bench_function(format!("{}_batch_{n}", reward_type.as_str()), |b| {
             b.iter(|| {
-                f.compute_batch(&achieved, &desired, &contexts, &mut out)
+                env.compute_rewards(&achieved, &desired, &contexts, &mut out)
                     .unwrap()
             })
         });

@@ -41,7 +41,10 @@ fn physics_step(c: &mut Criterion) {
                 }
                 timed += start.elapsed();
                 assert!(
-                    sim.cube_contacts().robot_links.len() >= 2,
+                    sim.object_contacts(sim.object("cube").unwrap())
+                        .robot_links
+                        .len()
+                        >= 2,
                     "the cube fell out of the hand during the bench"
                 );
                 done += n;

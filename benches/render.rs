@@ -6,11 +6,11 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use panda_rapier::policies::ScriptedPolicy;
 use panda_rapier::render::{RenderConfig, Renderer};
-use panda_rapier::task::{EnvConfig, PickAndPlaceEnv, ResetOptions};
+use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
 
 fn render(c: &mut Criterion) {
     let config = EnvConfig::default();
-    let mut env = PickAndPlaceEnv::new(config.clone()).unwrap();
+    let mut env = PandaEnv::new(config.clone()).unwrap();
     env.reset(Some(0), &ResetOptions::default()).unwrap();
     let mut policy = ScriptedPolicy::new(&config).unwrap();
     let mut action = vec![0.0; env.action_dim()];

@@ -42,7 +42,8 @@ fn swing_creep(sim_config: &SimConfig) -> panda_rapier::Result<(f64, f64, bool)>
     demo::run_until(&mut sim, &plan, Some("lift"))?;
     let in_hand = |sim: &Simulation| {
         let tcp = sim.tcp_state();
-        tcp.orientation.inverse() * (sim.cube_state().position - tcp.position)
+        tcp.orientation.inverse()
+            * (sim.object_state(sim.object("cube").unwrap()).position - tcp.position)
     };
     let start = in_hand(&sim);
     let q1 = sim.joint_positions()[0];
@@ -58,7 +59,11 @@ fn swing_creep(sim_config: &SimConfig) -> panda_rapier::Result<(f64, f64, bool)>
         }
         within_10s = within_10s.max(drift);
     }
-    let held = sim.cube_contacts().robot_links.len() >= 2;
+    let held = sim
+        .object_contacts(sim.object("cube").unwrap())
+        .robot_links
+        .len()
+        >= 2;
     Ok((within_2s, within_10s, held))
 }
 

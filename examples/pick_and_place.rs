@@ -13,7 +13,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let mut sim = Simulation::new(config)?;
     let plan = TutorialSequence::for_scene(&sim);
-    let start = sim.cube_state().position;
+    let start = sim.object_state(sim.object("cube").unwrap()).position;
     println!(
         "panda_rapier: Franka Panda, cube {:.0} mm / {} kg at ({:.3}, {:.3}, {:.3}), physics dt {} s x {} substeps, {} solver iterations",
         sim.config().cube.size * 1000.0,

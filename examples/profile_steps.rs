@@ -5,7 +5,7 @@
 //!
 //! Resets (with seeds 0, 1, ...) whenever an episode ends, so reset cost shows in proportion.
 
-use panda_rapier::task::{EnvConfig, PickAndPlaceEnv, ResetOptions};
+use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -16,7 +16,7 @@ fn main() -> panda_rapier::Result<()> {
         Some(path) => EnvConfig::from_json(&std::fs::read_to_string(path).expect("config file"))?,
         None => EnvConfig::default(),
     };
-    let mut env = PickAndPlaceEnv::new(config)?;
+    let mut env = PandaEnv::new(config)?;
     let options = ResetOptions::default();
     let mut seed = 0;
     env.reset(Some(seed), &options)?;

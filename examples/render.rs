@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use panda_rapier::policies::ScriptedPolicy;
 use panda_rapier::render::{RenderConfig, Renderer};
-use panda_rapier::task::{EnvConfig, PickAndPlaceEnv, ResetOptions};
+use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -19,7 +19,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = args.get(3).map_or("frame.ppm", String::as_str);
 
     let config = EnvConfig::default();
-    let mut env = PickAndPlaceEnv::new(config.clone())?;
+    let mut env = PandaEnv::new(config.clone())?;
     env.reset(Some(0), &ResetOptions::default())?;
     let mut policy = ScriptedPolicy::new(&config)?;
     let mut renderer = Renderer::new(RenderConfig {

@@ -3,7 +3,7 @@
 //! `cargo run --release --example scripted_trace -- [seed] [ee|joints] [max_episode_steps] [env_index]`
 
 use panda_rapier::policies::ScriptedPolicy;
-use panda_rapier::task::{ControlMode, EnvConfig, PickAndPlaceEnv, ResetOptions};
+use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -19,11 +19,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ..EnvConfig::default()
     };
     let index: u64 = args.get(3).map_or(Ok(0), |s| s.parse())?;
-    let mut env = PickAndPlaceEnv::with_index(config.clone(), index)?;
+    let mut env = PandaEnv::with_index(config.clone(), index)?;
     let mut policy = ScriptedPolicy::new(&config)?;
     env.reset(Some(seed), &ResetOptions::default())?;
     let mut action = vec![0.0; policy.action_dim()];
-    let layout = *env.layout();
+    let layout = env.layout().clone();
     for step in 1..=limit {
         let obs = env.observation().to_vec();
         let phase = policy.act(&obs, &mut action)?;

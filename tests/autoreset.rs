@@ -5,7 +5,7 @@
 //!   ignores its action and returns reward 0 (Gymnasium's default);
 //! - disabled: stepping an ended env is an error until it is reset.
 
-use panda_rapier::task::{EnvConfig, PickAndPlaceEnv, ResetOptions};
+use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
 use panda_rapier::vector::{AutoresetMode, VecEnv};
 use panda_rapier::Error;
 
@@ -26,7 +26,7 @@ fn row(env: &VecEnv, buffer: &[f32], i: usize) -> Vec<f32> {
 /// The observations a standalone env 0 goes through: episode 1 (reset + LEN steps), then the
 /// first observation of episode 2 (the stream continues).
 fn standalone_trajectory(action: &[f32]) -> (Vec<Vec<f32>>, Vec<f32>) {
-    let mut env = PickAndPlaceEnv::with_index(config(), 0).unwrap();
+    let mut env = PandaEnv::with_index(config(), 0).unwrap();
     env.reset(Some(3), &ResetOptions::default()).unwrap();
     let mut obs = vec![env.observation().to_vec()];
     for _ in 0..LEN {

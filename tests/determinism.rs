@@ -12,7 +12,7 @@ fn fingerprint(sim: &Simulation) -> Vec<u64> {
         .chain(sim.joint_velocities())
         .map(f64::to_bits)
         .collect();
-    let cube = sim.cube_state();
+    let cube = sim.object_state(sim.object("cube").unwrap());
     for v in cube
         .position
         .iter()

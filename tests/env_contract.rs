@@ -1,7 +1,7 @@
 //! Contract: rewards, success logic and `compute_reward`, and typed errors for bad input.
 
 use panda_rapier::task::{
-    ControlMode, EnvConfig, PickAndPlaceEnv, ResetOptions, RewardContext, RewardType,
+    ControlMode, EnvConfig, PandaEnv, ResetOptions, RewardContext, RewardType,
 };
 use panda_rapier::vector::{AutoresetMode, VecEnv};
 use panda_rapier::Error;
@@ -26,7 +26,7 @@ fn configs() -> Vec<EnvConfig> {
 #[test]
 fn compute_reward_reproduces_every_step_reward_and_relabels_goals() {
     for config in configs() {
-        let mut env = PickAndPlaceEnv::new(config.clone()).unwrap();
+        let mut env = PandaEnv::new(config.clone()).unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(4);
         let (mut achieved, mut desired, mut contexts, mut rewards) =
             (vec![], vec![], vec![], vec![]);
@@ -55,9 +55,8 @@ fn compute_reward_reproduces_every_step_reward_and_relabels_goals() {
                 }
             }
         }
-        let f = env.reward_function();
         let mut batch = vec![0.0; rewards.len()];
-        f.compute_batch(&achieved, &desired, &contexts, &mut batch)
+        env.compute_rewards(&achieved, &desired, &contexts, &mut batch)
             .unwrap();
         let same = batch
             .iter()
@@ -71,7 +70,7 @@ fn compute_reward_reproduces_every_step_reward_and_relabels_goals() {
 
         // Relabelled with the achieved goal (HER's "final"/"future" strategies): success.
         let mut relabelled = vec![0.0; rewards.len()];
-        f.compute_batch(&achieved, &achieved, &contexts, &mut relabelled)
+        env.compute_rewards(&achieved, &achieved, &contexts, &mut relabelled)
             .unwrap();
         match config.reward_type {
             RewardType::Sparse => assert!(relabelled.iter().all(|&r| r == 0.0)),
@@ -91,12 +90,12 @@ fn goals_lie_on_or_above_the_platform_and_cubes_start_in_the_pick_region() {
         goal_air_probability: 0.5,
         ..EnvConfig::default()
     };
-    let mut env = PickAndPlaceEnv::new(config.clone()).unwrap();
+    let mut env = PandaEnv::new(config.clone()).unwrap();
     let rest = config.sim.platform.top_center[2] + config.sim.cube.size / 2.0;
     let mut in_air = 0;
     for seed in 0..200 {
         env.reset(Some(seed), &ResetOptions::default()).unwrap();
-        let goal = env.goal();
+        let goal = panda_rapier::nalgebra::Vector3::from_column_slice(env.goal());
         let g = &config.goal_region;
         assert!(
             goal.x >= g.low[0] && goal.x <= g.high[0] && goal.y >= g.low[1] && goal.y <= g.high[1]
@@ -127,11 +126,11 @@ fn domain_randomisation_draws_within_its_ranges() {
     config.randomization.cube_mass = Some([0.05, 0.3]);
     config.randomization.cube_friction = Some([0.6, 1.2]);
     config.randomization.joint_noise = 0.05;
-    let mut env = PickAndPlaceEnv::new(config).unwrap();
+    let mut env = PandaEnv::new(config).unwrap();
     let mut sizes = Vec::new();
     for seed in 0..20 {
         env.reset(Some(seed), &ResetOptions::default()).unwrap();
-        let (size, mass, friction) = env.simulation().cube_properties();
+        let (size, mass, friction) = env.simulation().object_properties(cube(&env));
         assert!((0.04..=0.06).contains(&size) && (0.05..=0.3).contains(&mass));
         assert!((0.6..=1.2).contains(&friction));
         // The cube rests on the floor whatever its size.
@@ -141,14 +140,14 @@ fn domain_randomisation_draws_within_its_ranges() {
     sizes.sort_by(f64::total_cmp);
     assert!(sizes[19] - sizes[0] > 0.01, "sizes barely vary: {sizes:?}");
     // Off again: the default cube, same positions for the same seed.
-    let mut plain = PickAndPlaceEnv::new(EnvConfig::default()).unwrap();
+    let mut plain = PandaEnv::new(EnvConfig::default()).unwrap();
     plain.reset(Some(3), &ResetOptions::default()).unwrap();
-    assert!((plain.simulation().cube_properties().0 - 0.05).abs() < 1e-7);
+    assert!((plain.simulation().object_properties(cube(&plain)).0 - 0.05).abs() < 1e-7);
 }
 
 #[test]
 fn bad_input_gets_typed_errors() {
-    let mut env = PickAndPlaceEnv::new(EnvConfig::default()).unwrap();
+    let mut env = PandaEnv::new(EnvConfig::default()).unwrap();
     assert!(matches!(
         env.step(&[0.0; 4]),
         Err(Error::ResetNeeded { .. })
@@ -200,7 +199,7 @@ fn bad_input_gets_typed_errors() {
         ..EnvConfig::default()
     };
     assert!(matches!(
-        PickAndPlaceEnv::new(bad_config.clone()),
+        PandaEnv::new(bad_config.clone()),
         Err(Error::InvalidConfig { .. })
     ));
     assert!(matches!(
@@ -242,8 +241,7 @@ fn bad_input_gets_typed_errors() {
     let context = [RewardContext::default()];
     let mut out = [0.0; 1];
     assert!(vec_env
-        .reward_function()
-        .compute_batch(&[0.0; 3], &[0.0; 2], &context, &mut out)
+        .compute_rewards(&[0.0; 3], &[0.0; 2], &context, &mut out)
         .is_err());
 }
 
@@ -253,7 +251,7 @@ fn a_blow_up_truncates_keeps_the_last_valid_observation_and_needs_a_reset() {
     // truncation and the recovery are what is tested.
     let mut config = EnvConfig::default();
     config.thresholds.unstable_linear_speed = 0.3;
-    let mut env = PickAndPlaceEnv::new(config.clone()).unwrap();
+    let mut env = PandaEnv::new(config.clone()).unwrap();
     env.reset(Some(0), &ResetOptions::default()).unwrap();
     let mut blown = None;
     for step in 0..20 {
@@ -307,7 +305,7 @@ fn control_frequency_sets_the_step_duration() {
             control_frequency: hz,
             ..EnvConfig::default()
         };
-        let mut env = PickAndPlaceEnv::new(config).unwrap();
+        let mut env = PandaEnv::new(config).unwrap();
         assert!((env.dt() - dt).abs() < 1e-12, "{hz} Hz: dt {}", env.dt());
         env.reset(Some(0), &ResetOptions::default()).unwrap();
         let t0 = env.simulation().time();
@@ -318,15 +316,25 @@ fn control_frequency_sets_the_step_duration() {
 
 #[test]
 fn refresh_follows_a_teleported_cube() {
-    let mut env = PickAndPlaceEnv::new(EnvConfig::default()).unwrap();
+    let mut env = PandaEnv::new(EnvConfig::default()).unwrap();
     assert!(matches!(env.refresh(), Err(Error::ResetNeeded { .. })));
     env.reset(Some(0), &ResetOptions::default()).unwrap();
-    let goal = env.goal();
+    let goal = panda_rapier::nalgebra::Vector3::from_column_slice(env.goal());
+    let cube = cube(&env);
     env.simulation_mut()
-        .set_cube_pose(&goal, &panda_rapier::nalgebra::UnitQuaternion::identity())
+        .set_object_pose(
+            cube,
+            &goal,
+            &panda_rapier::nalgebra::UnitQuaternion::identity(),
+        )
         .unwrap();
     assert!(!env.info().is_success, "the info is stale until refreshed");
     let info = *env.refresh().unwrap();
     assert!(info.is_success && info.goal_distance < 1e-6);
     assert_eq!(&env.observation()[..3], &env.observation()[3..6]);
+}
+
+/// The pick-and-place cube of `env`'s world.
+fn cube(env: &PandaEnv) -> panda_rapier::ObjectId {
+    env.simulation().object("cube").unwrap()
 }

@@ -2,7 +2,7 @@
 //! any thread count (1, 2, 4), for environment `i` whatever the number of environments, and for
 //! a reset with a seed whatever the environment did before.
 
-use panda_rapier::task::{ControlMode, EnvConfig, PickAndPlaceEnv, ResetOptions};
+use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions};
 use panda_rapier::vector::{AutoresetMode, VecEnv};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -82,7 +82,7 @@ fn env_i_is_the_same_alone_and_among_sixteen() {
     );
 
     // Env 5 of the vector env against a standalone env drawing from stream 5.
-    let mut alone = PickAndPlaceEnv::with_index(config.clone(), 5).unwrap();
+    let mut alone = PandaEnv::with_index(config.clone(), 5).unwrap();
     alone.reset(Some(7), &ResetOptions::default()).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(99);
     let mut row = Vec::new();
@@ -108,7 +108,7 @@ fn env_i_is_the_same_alone_and_among_sixteen() {
     );
 }
 
-fn episode_bits(env: &mut PickAndPlaceEnv, seed: u64, steps: usize) -> Vec<u32> {
+fn episode_bits(env: &mut PandaEnv, seed: u64, steps: usize) -> Vec<u32> {
     env.reset(Some(seed), &ResetOptions::default()).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(seed + 1000);
     let mut bits: Vec<u32> = env.observation().iter().map(|x| x.to_bits()).collect();
@@ -128,9 +128,9 @@ fn seeded_reset_forgets_history() {
             control_mode: mode,
             ..EnvConfig::default()
         };
-        let mut fresh = PickAndPlaceEnv::new(config.clone()).unwrap();
+        let mut fresh = PandaEnv::new(config.clone()).unwrap();
         let reference = episode_bits(&mut fresh, 11, 40);
-        let mut used = PickAndPlaceEnv::new(config).unwrap();
+        let mut used = PandaEnv::new(config).unwrap();
         episode_bits(&mut used, 3, 50);
         episode_bits(&mut used, 4, 17);
         assert!(episode_bits(&mut used, 11, 40) == reference, "{mode:?}");
@@ -139,7 +139,7 @@ fn seeded_reset_forgets_history() {
 
 #[test]
 fn seeds_change_the_episode_and_unseeded_resets_continue_the_stream() {
-    let mut env = PickAndPlaceEnv::new(EnvConfig::default()).unwrap();
+    let mut env = PandaEnv::new(EnvConfig::default()).unwrap();
     env.reset(Some(1), &ResetOptions::default()).unwrap();
     let first = env.observation().to_vec();
     env.reset(None, &ResetOptions::default()).unwrap();

@@ -51,8 +51,10 @@ fn non_finite_commands_are_rejected() {
         sim.set_gripper(f64::NAN, None),
         Err(Error::NonFinite { .. })
     ));
+    let cube = sim.object("cube").unwrap();
     let err = sim
-        .set_cube_pose(
+        .set_object_pose(
+            cube,
             &Vector3::new(0.0, f64::NAN, 0.0),
             &UnitQuaternion::identity(),
         )

@@ -84,7 +84,8 @@ fn a_held_cube_stays_in_the_hand_through_30_seconds_of_swinging() {
     // The cube's centre in the hand's frame: the hand turns with the base joint.
     let in_hand = |sim: &Simulation| {
         let tcp = sim.tcp_state();
-        tcp.orientation.inverse() * (sim.cube_state().position - tcp.position)
+        tcp.orientation.inverse()
+            * (sim.object_state(sim.object("cube").unwrap()).position - tcp.position)
     };
     let start = in_hand(&sim);
     let q1 = sim.joint_positions()[0];
@@ -110,7 +111,7 @@ fn a_held_cube_stays_in_the_hand_through_30_seconds_of_swinging() {
         worst_within(1000) < 0.005,
         "more than 5 mm of creep within 10 s"
     );
-    let contacts = sim.cube_contacts();
+    let contacts = sim.object_contacts(sim.object("cube").unwrap());
     assert!(
         contacts.robot_links.len() >= 2 && !contacts.floor,
         "the cube is no longer held after 30 s: {contacts:?}"
@@ -134,7 +135,7 @@ fn the_grasp_obeys_coulomb_friction() {
     let lift_with = |drive_force: f64| {
         let (mut sim, plan) = setup(drive_force);
         demo::run_until(&mut sim, &plan, Some("close")).unwrap();
-        let contacts = sim.cube_contacts();
+        let contacts = sim.object_contacts(sim.object("cube").unwrap());
         assert_eq!(
             contacts.robot_forces.len(),
             2,

@@ -5,7 +5,7 @@
 
 use panda_rapier::demo::{self, hand_down, TutorialSequence};
 use panda_rapier::nalgebra::Vector3;
-use panda_rapier::task::{ControlMode, EnvConfig, PickAndPlaceEnv, ResetOptions};
+use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions};
 use panda_rapier::{ArmModel, Error, IkOptions, JointControl, SimConfig, Simulation};
 
 fn kinematic() -> SimConfig {
@@ -114,7 +114,7 @@ fn kinematic_episodes_are_bit_identical_and_restore_exactly() {
         control_mode: ControlMode::Joints,
         ..EnvConfig::default()
     };
-    let run = |env: &mut PickAndPlaceEnv, steps: usize| -> Vec<f32> {
+    let run = |env: &mut PandaEnv, steps: usize| -> Vec<f32> {
         let mut trace = Vec::new();
         for k in 0..steps {
             let action: Vec<f32> = (0..env.action_dim())
@@ -125,8 +125,8 @@ fn kinematic_episodes_are_bit_identical_and_restore_exactly() {
         }
         trace
     };
-    let mut a = PickAndPlaceEnv::new(config.clone()).unwrap();
-    let mut b = PickAndPlaceEnv::new(config).unwrap();
+    let mut a = PandaEnv::new(config.clone()).unwrap();
+    let mut b = PandaEnv::new(config).unwrap();
     a.reset(Some(5), &ResetOptions::default()).unwrap();
     b.reset(Some(5), &ResetOptions::default()).unwrap();
     assert_eq!(run(&mut a, 30), run(&mut b, 30));

@@ -2,7 +2,7 @@
 //! value, configuration documents of any shape, seeds, reset options), the result is a finite
 //! observation or a typed `Error`, never a panic.
 
-use panda_rapier::task::{EnvConfig, PickAndPlaceEnv, ResetOptions};
+use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
 use panda_rapier::vector::{AutoresetMode, VecEnv};
 use panda_rapier::Error;
 use proptest::prelude::*;
@@ -72,7 +72,7 @@ proptest! {
 
     #[test]
     fn any_action_steps_or_is_rejected(action in proptest::collection::vec(any_value(), 0..10)) {
-        let mut env = PickAndPlaceEnv::new(EnvConfig::default()).unwrap();
+        let mut env = PandaEnv::new(EnvConfig::default()).unwrap();
         env.reset(Some(0), &ResetOptions::default()).unwrap();
         match env.step(&action) {
             Ok(t) => {
@@ -91,7 +91,7 @@ proptest! {
     #[test]
     fn any_config_document_builds_an_env_or_is_rejected(doc in config_document()) {
         match EnvConfig::from_json(&doc.to_string()) {
-            Ok(config) => match PickAndPlaceEnv::new(config) {
+            Ok(config) => match PandaEnv::new(config) {
                 Ok(mut env) => {
                     env.reset(Some(1), &ResetOptions::default()).unwrap();
                     let zeros = vec![0.0; env.action_dim()];

@@ -3,11 +3,11 @@
 //! bytes.
 
 use panda_rapier::render::{CameraConfig, RenderConfig, Renderer};
-use panda_rapier::task::{EnvConfig, PickAndPlaceEnv, ResetOptions};
+use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
 use panda_rapier::{SimConfig, Simulation, VisualShape, VisualTag};
 
-fn env(seed: u64) -> PickAndPlaceEnv {
-    let mut env = PickAndPlaceEnv::new(EnvConfig::default()).unwrap();
+fn env(seed: u64) -> PandaEnv {
+    let mut env = PandaEnv::new(EnvConfig::default()).unwrap();
     env.reset(Some(seed), &ResetOptions::default()).unwrap();
     env
 }
@@ -33,15 +33,19 @@ fn visual_primitives_describe_every_collider_at_its_pose() {
     let count = |f: &dyn Fn(&VisualTag) -> bool| primitives.iter().filter(|p| f(&p.tag)).count();
     assert_eq!(count(&|t| *t == VisualTag::Floor), 1);
     assert_eq!(count(&|t| *t == VisualTag::Platform), 1);
-    assert_eq!(count(&|t| *t == VisualTag::Cube), 1);
+    assert_eq!(count(&|t| *t == VisualTag::Object { index: 0 }), 1);
     let robot: usize = sim.link_states().iter().map(|l| l.num_colliders).sum();
     assert_eq!(count(&|t| matches!(t, VisualTag::RobotLink { .. })), robot);
     assert!(count(&|t| matches!(t, VisualTag::RobotLink { finger: true, .. })) >= 2);
     let cube = primitives
         .iter()
-        .find(|p| p.tag == VisualTag::Cube)
+        .find(|p| p.tag == VisualTag::Object { index: 0 })
         .unwrap();
-    assert!((cube.pose.translation.vector - sim.cube_state().position).norm() < 1e-6);
+    assert!(
+        (cube.pose.translation.vector - sim.object_state(sim.object("cube").unwrap()).position)
+            .norm()
+            < 1e-6
+    );
     let half = sim.config().cube.size / 2.0;
     assert!(
         matches!(cube.shape, VisualShape::Box { half_extents } if (half_extents.x - half).abs() < 1e-6)
@@ -62,7 +66,10 @@ fn visual_primitives_describe_every_collider_at_its_pose() {
 fn the_cube_is_drawn_where_it_is() {
     let env = env(7);
     let mut renderer = renderer(480, 320);
-    let cube = env.simulation().cube_state().position;
+    let cube = env
+        .simulation()
+        .object_state(env.simulation().object("cube").unwrap())
+        .position;
     let [x, y] = renderer.camera().project(&cube, 480, 320).unwrap();
     let frame = renderer.render(&env);
     let (x, y) = (x as u32, y as u32);
@@ -163,7 +170,7 @@ fn a_reset_is_drawn_before_any_step() {
     env.simulation().visual_primitives(&mut primitives);
     let cube = primitives
         .iter()
-        .find(|p| p.tag == VisualTag::Cube)
+        .find(|p| p.tag == VisualTag::Object { index: 0 })
         .unwrap();
     let observed = &env.observation()[env.layout().achieved_goal()];
     for (drawn, seen) in cube.pose.translation.vector.iter().zip(observed) {

@@ -204,24 +204,30 @@ fn gripper_opens_and_closes_with_coupled_fingers() {
 fn cube_teleports_and_rests_on_the_floor() {
     let mut sim = sim();
     let target = Vector3::new(0.6, 0.0, 0.1);
-    sim.set_cube_pose(&target, &Isometry3::identity().rotation)
+    let cube = sim.object("cube").unwrap();
+    sim.set_object_pose(cube, &target, &Isometry3::identity().rotation)
         .unwrap();
     assert_eq!(
-        sim.cube_state().position.map(|v| (v * 1e6).round()),
+        sim.object_state(sim.object("cube").unwrap())
+            .position
+            .map(|v| (v * 1e6).round()),
         target.map(|v| (v * 1e6).round())
     );
     for _ in 0..25 {
         sim.step_control();
     }
-    let cube = sim.cube_state();
+    let cube = sim.object_state(sim.object("cube").unwrap());
     assert!(
         (cube.position.z - 0.025).abs() < 1e-3,
         "cube at z = {}",
         cube.position.z
     );
-    assert!(sim.cube_contacts().floor);
-    assert!(!sim.cube_contacts().platform);
-    assert!(sim.cube_contacts().robot_links.is_empty());
+    assert!(sim.object_contacts(sim.object("cube").unwrap()).floor);
+    assert!(!sim.object_contacts(sim.object("cube").unwrap()).platform);
+    assert!(sim
+        .object_contacts(sim.object("cube").unwrap())
+        .robot_links
+        .is_empty());
 }
 
 #[test]
@@ -245,7 +251,8 @@ fn the_hand_collides_with_the_platform_and_the_floor() {
             .unwrap();
         let mut targets = ik.q.clone();
         targets[7] = 0.0;
-        sim.set_cube_pose(&Vector3::new(0.3, -0.4, 0.025), &Default::default())
+        let cube = sim.object("cube").unwrap();
+        sim.set_object_pose(cube, &Vector3::new(0.3, -0.4, 0.025), &Default::default())
             .unwrap();
         sim.set_position_targets(&targets).unwrap();
         for _ in 0..75 {

@@ -4,7 +4,7 @@
 
 use panda_rapier::nalgebra::{UnitQuaternion, Vector3};
 use panda_rapier::policies::{evaluate, Phase, ScriptedPolicy};
-use panda_rapier::task::{ControlMode, EnvConfig, PickAndPlaceEnv, ResetOptions};
+use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions};
 use panda_rapier::ArmModel;
 
 fn config(mode: ControlMode) -> EnvConfig {
@@ -62,7 +62,7 @@ fn places_the_cube_with_the_kinematic_arm_too() {
 #[test]
 fn actions_depend_on_the_observation_only() {
     let cfg = config(ControlMode::Joints);
-    let mut env = PickAndPlaceEnv::new(cfg.clone()).unwrap();
+    let mut env = PandaEnv::new(cfg.clone()).unwrap();
     let mut policy = ScriptedPolicy::new(&cfg).unwrap();
     env.reset(Some(3), &ResetOptions::default()).unwrap();
     let mut action = vec![0.0; policy.action_dim()];
@@ -92,7 +92,7 @@ fn recovers_when_the_cube_is_taken_from_the_hand() {
         max_episode_steps: Some(200),
         ..config(ControlMode::Ee)
     };
-    let mut env = PickAndPlaceEnv::new(cfg.clone()).unwrap();
+    let mut env = PandaEnv::new(cfg.clone()).unwrap();
     let mut policy = ScriptedPolicy::new(&cfg).unwrap();
     env.reset(Some(7), &ResetOptions::default()).unwrap();
     let mut action = [0.0f32; 4];
@@ -104,8 +104,10 @@ fn recovers_when_the_cube_is_taken_from_the_hand() {
         phases.push(phase);
         if phase == Phase::Carry && !snatched {
             // Put the cube back on the floor, away from the hand.
+            let cube = env.simulation().object("cube").unwrap();
             env.simulation_mut()
-                .set_cube_pose(
+                .set_object_pose(
+                    cube,
                     &Vector3::new(0.45, -0.15, 0.025),
                     &UnitQuaternion::identity(),
                 )

@@ -1,12 +1,12 @@
 //! Contract: restoring a snapshot continues bit-identically, including mid-grasp with contacts
 //! active, and a snapshot moves between environments built from the same configuration.
 
-use panda_rapier::task::{EnvConfig, PickAndPlaceEnv, ResetOptions};
+use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
 use panda_rapier::Error;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-fn continue_bits(env: &mut PickAndPlaceEnv, actions: &[[f32; 4]]) -> Vec<u32> {
+fn continue_bits(env: &mut PandaEnv, actions: &[[f32; 4]]) -> Vec<u32> {
     let mut bits = Vec::new();
     for a in actions {
         let t = env.step(a).unwrap();
@@ -22,7 +22,7 @@ fn continue_bits(env: &mut PickAndPlaceEnv, actions: &[[f32; 4]]) -> Vec<u32> {
 
 #[test]
 fn snapshot_continues_bit_identically() {
-    let mut env = PickAndPlaceEnv::new(EnvConfig::default()).unwrap();
+    let mut env = PandaEnv::new(EnvConfig::default()).unwrap();
     env.reset(Some(5), &ResetOptions::default()).unwrap();
     // Go down onto the cube and close the hand, so contacts and warm-start state are live.
     let cube = env.observation()[..3].to_vec();
@@ -62,12 +62,12 @@ fn snapshot_continues_bit_identically() {
     assert!(first == second, "restore did not continue identically");
 
     // Into another env with the same configuration.
-    let mut other = PickAndPlaceEnv::new(EnvConfig::default()).unwrap();
+    let mut other = PandaEnv::new(EnvConfig::default()).unwrap();
     other.restore(&snapshot).unwrap();
     assert!(continue_bits(&mut other, &actions) == first);
 
     // Not into a differently configured one.
-    let mut different = PickAndPlaceEnv::new(EnvConfig {
+    let mut different = PandaEnv::new(EnvConfig {
         sim: panda_rapier::SimConfig {
             floor_friction: 0.5,
             ..Default::default()

@@ -3,10 +3,10 @@
 //! it; along the way `is_grasped`, `is_lifted`, `is_success` and `is_placed` switch on when they
 //! should, and the reward matches `compute_reward` on the reported goals and info.
 
-use panda_rapier::task::{ControlMode, EnvConfig, PickAndPlaceEnv, ResetOptions, RewardType};
+use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions, RewardType};
 
 /// Phase-based controller for `ee` control, reading only the flat observation.
-fn scripted_ee(obs: &[f32], env: &PickAndPlaceEnv, phase: &mut usize) -> [f32; 4] {
+fn scripted_ee(obs: &[f32], env: &PandaEnv, phase: &mut usize) -> [f32; 4] {
     let l = env.layout();
     let get = |name: &str| -> Vec<f32> { obs[l.slot(name).unwrap()].to_vec() };
     let tcp = get("tcp_position");
@@ -44,7 +44,7 @@ fn scripted_ee(obs: &[f32], env: &PickAndPlaceEnv, phase: &mut usize) -> [f32; 4
 }
 
 /// Runs the controller for one seeded episode; returns the step at which the cube was placed.
-fn run_episode(env: &mut PickAndPlaceEnv, seed: u64, verbose: bool) -> (Option<u32>, [bool; 4]) {
+fn run_episode(env: &mut PandaEnv, seed: u64, verbose: bool) -> (Option<u32>, [bool; 4]) {
     env.reset(Some(seed), &ResetOptions::default()).unwrap();
     let mut phase = 0;
     let mut seen = [false; 4];
@@ -54,8 +54,12 @@ fn run_episode(env: &mut PickAndPlaceEnv, seed: u64, verbose: bool) -> (Option<u
         let t = env.step(&action).unwrap();
         let i = t.info;
         if verbose {
-            let touch = env.simulation().cube_touch();
-            let cube = env.simulation().cube_state();
+            let touch = env
+                .simulation()
+                .object_touch(env.simulation().object("cube").unwrap());
+            let cube = env
+                .simulation()
+                .object_state(env.simulation().object("cube").unwrap());
             let tcp = env.simulation().tcp_state();
             println!(
                 "{step:3} phase {phase} r {:7.3} d {:.3} grasp {} lift {} succ {} placed {} f {:.1?} yaw {:.2} rpy {:.2?} cube-tcp {:.3?} v {:.2}",
@@ -85,7 +89,7 @@ fn scripted_episodes_grasp_lift_and_place() {
         max_episode_steps: Some(100),
         ..EnvConfig::default()
     };
-    let mut env = PickAndPlaceEnv::new(config).unwrap();
+    let mut env = PandaEnv::new(config).unwrap();
     let mut steps = Vec::new();
     for seed in 0..20 {
         let (placed, seen) = run_episode(&mut env, seed, false);

@@ -256,9 +256,6 @@ impl Default for SimConfig {
     }
 }
 
-/// The Panda's ready pose: hand pointing down above the work surface, gripper open.
-pub const PANDA_READY: [f64; 8] = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.04];
-
 pub(crate) fn invalid(field: &str, reason: impl Into<String>) -> Error {
     Error::InvalidConfig {
         field: field.to_owned(),

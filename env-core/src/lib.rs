@@ -6,9 +6,11 @@
 //! configuration.
 //!
 //! - [`RobotModel`]: the robot description read from a URDF (introspection, kinematics).
+//! - [`Robot`]: the robot of an environment without a world (gripper, start pose, controller).
 //! - [`Simulation`]: one physics world; the only type that talks to rapier.
 //! - [`SimConfig`]: validated, serde-deserialisable configuration.
-//! - [`PickAndPlaceEnv`] / [`EnvConfig`]: the pick-and-place task as an RL environment.
+//! - [`Task`]: what differs between tasks ([`task::PickAndPlace`] is the first).
+//! - [`PandaEnv`] / [`EnvConfig`]: one environment running a task.
 //! - [`VecEnv`]: many environments stepped in parallel into contiguous buffers.
 //! - [`Error`]: every failure, typed.
 
@@ -18,23 +20,25 @@ pub mod error;
 pub mod kinematics;
 pub mod model;
 pub mod physics;
+pub mod robot;
 pub mod task;
 pub mod vector;
 
 pub use config::{
     ArmModel, CubeConfig, MotorConfig, MultibodyUpdate, PlatformConfig, SimConfig, SolverConfig,
-    PANDA_READY,
 };
 pub use error::{Error, Result};
 pub use kinematics::{pointing_down, IkOptions, IkReport, IkSolution, IkWorkspace};
 pub use model::{JointInfo, JointType, LinkInfo, Mimic, RobotModel, Tcp};
 pub use physics::{
-    BodyState, CubeContacts, CubeTouch, JointControl, JointState, LinkState, SimSnapshot,
-    Simulation, VisualPrimitive, VisualShape, VisualTag,
+    BodyState, JointControl, JointState, LinkState, ObjectContacts, ObjectId, ObjectSpec,
+    ObjectTouch, Scene, SimSnapshot, Simulation, VisualPrimitive, VisualShape, VisualTag,
 };
+pub use robot::panda::READY as PANDA_READY;
+pub use robot::{Controller, Gripper, Robot};
 pub use task::{
-    ControlMode, EnvConfig, EnvSnapshot, ObservationLayout, PickAndPlaceEnv, ResetOptions,
-    RewardType, StepInfo, Transition,
+    ControlMode, EnvConfig, EnvSnapshot, ObservationLayout, PandaEnv, ResetOptions, RewardType,
+    StepInfo, Task, TaskKind, Transition,
 };
 pub use vector::{AutoresetMode, VecEnv};
 

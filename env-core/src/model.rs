@@ -10,6 +10,7 @@ use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use rapier3d_urdf::urdf_rs;
 
 use crate::error::{Error, Result};
+use crate::robot::panda;
 
 /// The kind of a joint, as in the URDF.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -135,10 +136,6 @@ pub struct RobotModel {
     urdf: urdf_rs::Robot,
 }
 
-/// Name of the Panda hand link and the distance from it to the centre between the fingertips.
-const PANDA_HAND: &str = "panda_hand";
-const PANDA_TCP_OFFSET: f64 = 0.1034;
-
 impl RobotModel {
     /// Reads a URDF file. Mesh references (`package://pkg/...`, `file://...`, relative or
     /// absolute paths) are resolved against the URDF's folder, its ancestors and
@@ -162,12 +159,20 @@ impl RobotModel {
         Self::parse(text, base_dir.as_ref(), "<string>")
     }
 
+    /// The robot `config` names: its `robot_urdf`, else the bundled Panda.
+    pub fn from_config(config: &crate::config::SimConfig) -> Result<Self> {
+        match &config.robot_urdf {
+            Some(path) => Self::from_urdf_file(path),
+            None => Self::panda(),
+        }
+    }
+
     /// The bundled Franka Panda description (`assets/panda/panda.urdf`).
     pub fn panda() -> Result<Self> {
         Self::parse(
             crate::assets::PANDA_URDF,
             Path::new("."),
-            "assets/panda/panda.urdf",
+            panda::URDF_SOURCE,
         )
     }
 
@@ -348,10 +353,11 @@ impl RobotModel {
             }
         }
 
-        let tcp = match links.iter().position(|l| l.name == PANDA_HAND) {
+        // The Panda's TCP sits between the fingertips; any other robot's at its last link.
+        let tcp = match links.iter().position(|l| l.name == panda::HAND_LINK) {
             Some(link) => Tcp {
                 link,
-                offset: Isometry3::translation(0.0, 0.0, PANDA_TCP_OFFSET),
+                offset: Isometry3::translation(0.0, 0.0, panda::TCP_OFFSET),
             },
             None => Tcp {
                 link: *topological

@@ -1,4 +1,4 @@
-//! [`VecEnv`]: many [`PickAndPlaceEnv`]s stepped in parallel on a rayon pool of their own, into
+//! [`VecEnv`]: many [`PandaEnv`]s stepped in parallel on a rayon pool of their own, into
 //! contiguous, preallocated buffers.
 //!
 //! Environment `i` draws from random stream `(seed, i)` and is stepped by whichever thread picks
@@ -9,7 +9,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ensure_len, Error, Result};
-use crate::task::{EnvConfig, PickAndPlaceEnv, ResetOptions, RewardFunction, StepInfo, Transition};
+use crate::task::{
+    EnvConfig, ObservationLayout, PandaEnv, ResetOptions, RewardContext, StepInfo, Transition,
+};
 
 /// What happens when an episode ends inside [`VecEnv::step`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -43,7 +45,7 @@ impl AutoresetMode {
 /// One environment and its latest outputs.
 #[derive(Debug)]
 struct Lane {
-    env: PickAndPlaceEnv,
+    env: PandaEnv,
     transition: Transition,
     reset_info: StepInfo,
     has_final: bool,
@@ -113,8 +115,8 @@ impl VecEnv {
                 .min(num_envs),
         };
         let pool = build_pool(num_threads)?;
-        let build = |i: usize| PickAndPlaceEnv::with_index(config.clone(), i as u64);
-        let envs: Vec<PickAndPlaceEnv> = match &pool {
+        let build = |i: usize| PandaEnv::with_index(config.clone(), i as u64);
+        let envs: Vec<PandaEnv> = match &pool {
             Some(pool) => pool.install(|| {
                 (0..num_envs)
                     .into_par_iter()
@@ -185,9 +187,23 @@ impl VecEnv {
         self.lanes[0].env.config()
     }
 
-    /// The reward function shared by all environments (`compute_reward`).
-    pub fn reward_function(&self) -> &RewardFunction {
-        self.lanes[0].env.reward_function()
+    /// The task's reward for `n` transitions, recomputed from goals and reward contexts
+    /// (`compute_reward`; see [`PandaEnv::compute_rewards`]).
+    pub fn compute_rewards(
+        &self,
+        achieved: &[f32],
+        desired: &[f32],
+        contexts: &[RewardContext],
+        out: &mut [f32],
+    ) -> Result<()> {
+        self.lanes[0]
+            .env
+            .compute_rewards(achieved, desired, contexts, out)
+    }
+
+    /// Where everything sits in an observation row.
+    pub fn layout(&self) -> &ObservationLayout {
+        self.lanes[0].env.layout()
     }
 
     fn lane(&self, i: usize) -> Result<&Lane> {
@@ -197,12 +213,12 @@ impl VecEnv {
     }
 
     /// Environment `i`.
-    pub fn env(&self, i: usize) -> Result<&PickAndPlaceEnv> {
+    pub fn env(&self, i: usize) -> Result<&PandaEnv> {
         self.lane(i).map(|l| &l.env)
     }
 
     /// Environment `i`, mutably (the next outputs are refreshed by the next step or reset).
-    pub fn env_mut(&mut self, i: usize) -> Result<&mut PickAndPlaceEnv> {
+    pub fn env_mut(&mut self, i: usize) -> Result<&mut PandaEnv> {
         let n = self.lanes.len();
         self.lanes
             .get_mut(i)

@@ -3,44 +3,12 @@
 
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use panda_rapier_core::nalgebra::{Isometry3, Quaternion, UnitQuaternion, Vector3};
-use panda_rapier_core::task::{RewardContext, RewardFunction};
-use panda_rapier_core::StepInfo;
+use panda_rapier_core::task::{InfoType, InfoValue, RewardContext, INFO_FIELDS};
+use panda_rapier_core::{Error, StepInfo};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 
 use crate::errors::{invalid, Blame};
-
-/// One info key: its name and how to read it from a [`StepInfo`].
-enum InfoField {
-    Flag(&'static str, fn(&StepInfo) -> bool),
-    Real(&'static str, fn(&StepInfo) -> f64),
-    Count(&'static str, fn(&StepInfo) -> i64),
-}
-
-/// Every key of the info dict, in order. `reward_reach`, `reward_grasp`, `reward_lift`,
-/// `gripper_opening` and the three `cube_*` flags are the goal-free inputs `compute_reward` needs for the dense reward;
-/// they are reported for both reward types so transitions can be relabelled either way.
-const INFO_FIELDS: &[InfoField] = &[
-    InfoField::Flag("is_success", |i| i.is_success),
-    InfoField::Flag("is_grasped", |i| i.is_grasped),
-    InfoField::Flag("is_lifted", |i| i.is_lifted),
-    InfoField::Flag("is_placed", |i| i.is_placed),
-    InfoField::Flag("physics_unstable", |i| i.physics_unstable),
-    InfoField::Real("goal_distance", |i| i.goal_distance),
-    InfoField::Real("reward_reach", |i| i.context.reach as f64),
-    InfoField::Real("reward_grasp", |i| i.context.grasp as f64),
-    InfoField::Real("reward_lift", |i| i.context.lift as f64),
-    InfoField::Real("reward_carry", |i| i.terms.carry as f64),
-    InfoField::Real("reward_place", |i| i.terms.place as f64),
-    InfoField::Real("reward_release", |i| i.terms.release as f64),
-    InfoField::Real("gripper_opening", |i| i.context.gripper_opening as f64),
-    InfoField::Flag("cube_released", |i| i.context.cube_released),
-    InfoField::Flag("cube_at_rest", |i| i.context.cube_at_rest),
-    InfoField::Flag("cube_on_platform", |i| i.context.cube_on_platform),
-    InfoField::Real("ik_position_error", |i| i.ik_position_error),
-    InfoField::Flag("arm_blocked", |i| i.arm_blocked),
-    InfoField::Count("elapsed_steps", |i| i.elapsed_steps as i64),
-];
 
 /// The info of one step as a dict of Python scalars.
 pub(crate) fn info_dict<'py>(py: Python<'py>, info: &StepInfo) -> PyResult<Bound<'py, PyDict>> {
@@ -57,20 +25,16 @@ pub(crate) fn info_dicts<'a, 'py>(
 ) -> PyResult<Vec<Bound<'py, PyDict>>> {
     let keys: Vec<Bound<'py, PyString>> = INFO_FIELDS
         .iter()
-        .map(|field| match field {
-            InfoField::Flag(name, _) | InfoField::Real(name, _) | InfoField::Count(name, _) => {
-                PyString::intern(py, name)
-            }
-        })
+        .map(|field| PyString::intern(py, field.key))
         .collect();
     infos
         .map(|info| {
             let dict = PyDict::new(py);
-            for (key, field) in keys.iter().zip(INFO_FIELDS) {
-                match field {
-                    InfoField::Flag(_, get) => dict.set_item(key, get(info))?,
-                    InfoField::Real(_, get) => dict.set_item(key, get(info))?,
-                    InfoField::Count(_, get) => dict.set_item(key, get(info))?,
+            for (key, value) in keys.iter().zip(info.values()) {
+                match value {
+                    InfoValue::Bool(v) => dict.set_item(key, v)?,
+                    InfoValue::Float(v) => dict.set_item(key, v)?,
+                    InfoValue::Int(v) => dict.set_item(key, v)?,
                 }
             }
             Ok(dict)
@@ -84,19 +48,31 @@ pub(crate) fn info_columns<'py>(
     infos: &[StepInfo],
 ) -> PyResult<Bound<'py, PyDict>> {
     let dict = PyDict::new(py);
-    for field in INFO_FIELDS {
-        match field {
-            InfoField::Flag(name, get) => {
-                let column: Vec<bool> = infos.iter().map(get).collect();
-                dict.set_item(name, PyArray1::from_vec(py, column))?
+    let rows: Vec<_> = infos.iter().map(StepInfo::values).collect();
+    for (k, field) in INFO_FIELDS.iter().enumerate() {
+        let column = rows.iter().map(|row| row[k]);
+        match field.dtype {
+            InfoType::Bool => {
+                let values = column.map(|v| matches!(v, InfoValue::Bool(true))).collect();
+                dict.set_item(field.key, PyArray1::<bool>::from_vec(py, values))?
             }
-            InfoField::Real(name, get) => {
-                let column: Vec<f64> = infos.iter().map(get).collect();
-                dict.set_item(name, PyArray1::from_vec(py, column))?
+            InfoType::Float => {
+                let values = column
+                    .map(|v| match v {
+                        InfoValue::Float(x) => x,
+                        _ => f64::NAN,
+                    })
+                    .collect();
+                dict.set_item(field.key, PyArray1::<f64>::from_vec(py, values))?
             }
-            InfoField::Count(name, get) => {
-                let column: Vec<i64> = infos.iter().map(get).collect();
-                dict.set_item(name, PyArray1::from_vec(py, column))?
+            InfoType::Int => {
+                let values = column
+                    .map(|v| match v {
+                        InfoValue::Int(x) => x,
+                        _ => 0,
+                    })
+                    .collect();
+                dict.set_item(field.key, PyArray1::<i64>::from_vec(py, values))?
             }
         }
     }
@@ -116,18 +92,19 @@ pub(crate) type ContextColumns<'py> = (
     PyReadonlyArray1<'py, bool>,
 );
 
-/// Batched reward through the core's [`RewardFunction`]: `achieved` and `desired` are `n x 3`
-/// float32; `context` is required for the dense reward.
+/// Batched reward through the task's `compute_rewards`: `achieved` and `desired` are
+/// `n x goal_dim` float32; `context` is required for the dense reward.
 pub(crate) fn compute_reward<'py>(
     py: Python<'py>,
-    function: &RewardFunction,
+    goal_dim: usize,
+    compute: impl FnOnce(&[f32], &[f32], &[RewardContext], &mut [f32]) -> Result<(), Error>,
     achieved: PyReadonlyArray2<'py, f32>,
     desired: PyReadonlyArray2<'py, f32>,
     context: Option<ContextColumns<'py>>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let achieved = contiguous(py, &achieved, "achieved_goal")?;
     let desired = contiguous(py, &desired, "desired_goal")?;
-    let n = achieved.len() / 3;
+    let n = achieved.len() / goal_dim.max(1);
     let contexts: Vec<RewardContext> = match context {
         None => Vec::new(),
         Some((reach, grasp, lift, opening, released, at_rest, on_platform)) => {
@@ -158,8 +135,7 @@ pub(crate) fn compute_reward<'py>(
         }
     };
     let mut rewards = vec![0.0f32; n];
-    function
-        .compute_batch(achieved, desired, &contexts, &mut rewards)
+    compute(achieved, desired, &contexts, &mut rewards)
         .map_err(|e| crate::errors::to_py(py, e, Blame::Argument))?;
     Ok(PyArray1::from_vec(
         py,

@@ -1,9 +1,7 @@
-//! `NativeEnv`: one [`PickAndPlaceEnv`] and its robot, for `panda_rapier.PickAndPlaceEnv`.
+//! `NativeEnv`: one [`PandaEnv`] and its robot, for `panda_rapier.PandaEnv`.
 
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
-use panda_rapier_core::{
-    EnvConfig, EnvSnapshot, IkOptions, JointControl, PickAndPlaceEnv, ResetOptions,
-};
+use panda_rapier_core::{EnvConfig, EnvSnapshot, IkOptions, JointControl, PandaEnv, ResetOptions};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -27,7 +25,7 @@ pub struct NativeSnapshot {
 /// One pick-and-place environment.
 #[pyclass(module = "panda_rapier._native", name = "NativeEnv")]
 pub struct NativeEnv {
-    pub(crate) env: PickAndPlaceEnv,
+    pub(crate) env: PandaEnv,
     action: Vec<f32>,
 }
 
@@ -56,7 +54,7 @@ impl NativeEnv {
     #[pyo3(signature = (config_json, index = 0))]
     fn new(py: Python<'_>, config_json: &str, index: u64) -> PyResult<Self> {
         let config = parse_config(py, config_json)?;
-        let env = detached(py, || PickAndPlaceEnv::with_index(config, index))?
+        let env = detached(py, || PandaEnv::with_index(config, index))?
             .map_err(|e| to_py(py, e, Blame::Config))?;
         let action = vec![0.0; env.action_dim()];
         Ok(Self { env, action })
@@ -88,7 +86,7 @@ impl NativeEnv {
         self.env
             .layout()
             .slots()
-            .into_iter()
+            .iter()
             .map(|s| (s.name.to_string(), s.range.start, s.range.end))
             .collect()
     }
@@ -164,12 +162,12 @@ impl NativeEnv {
         self.step_result(py)
     }
 
-    /// The goal position.
-    fn goal(&self) -> [f64; 3] {
-        self.env.goal().into()
+    /// The goal (for pick-and-place the cube centre's goal position).
+    fn goal(&self) -> Vec<f64> {
+        self.env.goal().to_vec()
     }
 
-    /// Batched reward (see `panda_rapier.PickAndPlaceEnv.compute_reward`).
+    /// Batched reward (see `panda_rapier.PandaEnv.compute_reward`).
     #[pyo3(signature = (achieved_goal, desired_goal, context = None))]
     fn compute_reward<'py>(
         &self,
@@ -180,7 +178,8 @@ impl NativeEnv {
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         compute_reward(
             py,
-            self.env.reward_function(),
+            self.env.layout().goal_dim(),
+            |a, d, c, out| self.env.compute_rewards(a, d, c, out),
             achieved_goal,
             desired_goal,
             context,
@@ -385,9 +384,14 @@ impl NativeEnv {
         Ok(dict)
     }
 
-    /// The cube's pose and velocity.
-    fn cube_state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let s = self.env.simulation().cube_state();
+    /// Pose and velocity of the object called `name`.
+    #[pyo3(signature = (name = "cube"))]
+    fn object_state<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
+        let sim = self.env.simulation();
+        let cube = sim
+            .object(name)
+            .map_err(|e| crate::errors::to_py(py, e, crate::errors::Blame::Argument))?;
+        let s = sim.object_state(cube);
         let q = s.orientation.coords;
         let dict = PyDict::new(py);
         dict.set_item("position", <[f64; 3]>::from(s.position))?;

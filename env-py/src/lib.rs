@@ -20,6 +20,58 @@ fn default_config_json() -> String {
     serde_json::to_string(&panda_rapier_core::EnvConfig::default()).unwrap_or_default()
 }
 
+/// The observation and info schema of the environments `config_json` builds: the one
+/// definition (in the core) that Python builds its spaces, dict splitting and reward contexts
+/// from. Keys: `task`, `goal_dim`, `flat_dim`, `action_dim`, `observation` (a list of slots:
+/// `name`, `key` of the goal dict it belongs to, `start`, `stop` in the flat vector,
+/// `description`), `info` (a list of `key`, `dtype`, `description`) and
+/// `reward_context_keys` (the info keys `compute_reward` reads, in order).
+#[pyfunction]
+fn schema<'py>(py: Python<'py>, config_json: &str) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+    use panda_rapier_core::task::{ObservationLayout, INFO_FIELDS, REWARD_CONTEXT_KEYS};
+    use pyo3::types::PyDict;
+    let config = env::parse_config(py, config_json)?;
+    let (layout, action_dim) = errors::detached(py, || -> panda_rapier_core::Result<_> {
+        let layout = ObservationLayout::for_config(&config)?;
+        let robot = panda_rapier_core::Robot::new(&config.sim_config()?)?;
+        let action_dim = panda_rapier_core::Controller::action_dim(config.control_mode, &robot);
+        Ok((layout, action_dim))
+    })?
+    .map_err(|e| errors::to_py(py, e, errors::Blame::Config))?;
+    let dict = PyDict::new(py);
+    dict.set_item("task", config.task.as_str())?;
+    dict.set_item("goal_dim", layout.goal_dim())?;
+    dict.set_item("flat_dim", layout.flat_dim())?;
+    dict.set_item("action_dim", action_dim)?;
+    let slots = layout
+        .slots()
+        .iter()
+        .map(|slot| {
+            let d = PyDict::new(py);
+            d.set_item("name", slot.name)?;
+            d.set_item("key", slot.key)?;
+            d.set_item("start", slot.range.start)?;
+            d.set_item("stop", slot.range.end)?;
+            d.set_item("description", slot.description)?;
+            Ok(d)
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    dict.set_item("observation", slots)?;
+    let info = INFO_FIELDS
+        .iter()
+        .map(|field| {
+            let d = PyDict::new(py);
+            d.set_item("key", field.key)?;
+            d.set_item("dtype", field.dtype.as_str())?;
+            d.set_item("description", field.description)?;
+            Ok(d)
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    dict.set_item("info", info)?;
+    dict.set_item("reward_context_keys", REWARD_CONTEXT_KEYS.to_vec())?;
+    Ok(dict)
+}
+
 /// Runs the classic tutorial's pick-and-place sequence on a bare simulation of `config_json`
 /// and returns what the physics did: the accuracy side of a benchmark (grasp slip, tracking
 /// error, placement).
@@ -55,6 +107,7 @@ fn tutorial_fidelity<'py>(
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(default_config_json, m)?)?;
+    m.add_function(wrap_pyfunction!(schema, m)?)?;
     m.add_function(wrap_pyfunction!(tutorial_fidelity, m)?)?;
     m.add_class::<env::NativeEnv>()?;
     m.add_class::<env::NativeSnapshot>()?;

@@ -3,7 +3,7 @@
 
 use numpy::ndarray::Array3;
 use numpy::{IntoPyArray, PyArray3};
-use panda_rapier_core::PickAndPlaceEnv;
+use panda_rapier_core::PandaEnv;
 use panda_rapier_render::{RenderConfig, Renderer};
 use pyo3::prelude::*;
 
@@ -18,11 +18,7 @@ pub struct NativeRenderer {
 }
 
 impl NativeRenderer {
-    fn draw<'py>(
-        &mut self,
-        py: Python<'py>,
-        env: &PickAndPlaceEnv,
-    ) -> PyResult<Bound<'py, PyArray3<u8>>> {
+    fn draw<'py>(&mut self, py: Python<'py>, env: &PandaEnv) -> PyResult<Bound<'py, PyArray3<u8>>> {
         let renderer = &mut self.renderer;
         let (h, w) = (
             renderer.config().height as usize,

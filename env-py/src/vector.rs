@@ -210,7 +210,7 @@ impl NativeVecEnv {
         }
     }
 
-    /// Batched reward (see `panda_rapier.PickAndPlaceEnv.compute_reward`).
+    /// Batched reward (see `panda_rapier.PandaEnv.compute_reward`).
     #[pyo3(signature = (achieved_goal, desired_goal, context = None))]
     fn compute_reward<'py>(
         &self,
@@ -221,7 +221,8 @@ impl NativeVecEnv {
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         compute_reward(
             py,
-            self.vec.reward_function(),
+            self.vec.layout().goal_dim(),
+            |a, d, c, out| self.vec.compute_rewards(a, d, c, out),
             achieved_goal,
             desired_goal,
             context,

@@ -11,7 +11,7 @@ pub struct EpisodeOutcome {
     /// The seed of the episode...
     pub seed: u64,
     /// ...and the random stream (environment index) it ran on: the episode is that of
-    /// `PickAndPlaceEnv::with_index(config, env_index)` reset with `seed`.
+    /// `PandaEnv::with_index(config, env_index)` reset with `seed`.
     pub env_index: u64,
     /// Steps until `is_placed` first held, if it did.
     pub steps_to_placed: Option<u32>,

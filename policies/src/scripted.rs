@@ -7,10 +7,11 @@
 //! misses (the cube is then "not in the hand" again, and the approach starts over).
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
-use panda_rapier_core::task::{ControlMode, EnvConfig, ObservationLayout};
-use panda_rapier_core::{
-    pointing_down, Error, IkOptions, IkWorkspace, Result, RobotModel, Simulation,
+use panda_rapier_core::task::observation::{
+    GRIPPER_WIDTH, JOINT_POSITIONS, JOINT_VELOCITIES, TCP_POSITION, TCP_VELOCITY,
 };
+use panda_rapier_core::task::{make_task, ControlMode, EnvConfig, ObservationLayout};
+use panda_rapier_core::{Controller, Error, IkOptions, IkWorkspace, Result, Robot, RobotModel};
 
 /// What the controller is doing, recognised from the observation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -129,22 +130,16 @@ struct Slots {
 }
 
 impl Slots {
-    fn new(layout: &ObservationLayout) -> Result<Self> {
-        let slot = |name: &str| {
-            layout.slot(name).ok_or_else(|| Error::InvalidConfig {
-                field: "observation layout".into(),
-                reason: format!("has no `{name}` slot"),
-            })
-        };
-        Ok(Self {
+    fn new(layout: &ObservationLayout) -> Self {
+        Self {
             achieved: layout.achieved_goal(),
             desired: layout.desired_goal(),
-            joint_positions: slot("joint_positions")?,
-            joint_velocities: slot("joint_velocities")?,
-            tcp: slot("tcp_position")?,
-            tcp_velocity: slot("tcp_velocity")?,
-            width: slot("gripper_width")?.start,
-        })
+            joint_positions: layout.robot_slot(JOINT_POSITIONS),
+            joint_velocities: layout.robot_slot(JOINT_VELOCITIES),
+            tcp: layout.robot_slot(TCP_POSITION),
+            tcp_velocity: layout.robot_slot(TCP_VELOCITY),
+            width: layout.robot_slot(GRIPPER_WIDTH).start,
+        }
     }
 }
 
@@ -178,6 +173,7 @@ pub struct ScriptedPolicy {
     params: ScriptedParams,
     slots: Slots,
     observation_dim: usize,
+    action_dim: usize,
     cube_half: f64,
     open_width: f64,
     // Joint control: the robot's kinematics, where each dof's position sits among the
@@ -201,53 +197,49 @@ impl ScriptedPolicy {
     /// The policy with explicit parameters.
     pub fn with_params(config: &EnvConfig, params: ScriptedParams) -> Result<Self> {
         config.validate()?;
-        // A world of this configuration tells the robot's kinematics, base pose, ready pose
-        // and joint order exactly as the environment sees them.
-        let sim = Simulation::new(config.sim_config()?)?;
-        let model = sim.model().clone();
-        let gripper_dof = sim.gripper_dof().ok_or_else(|| Error::InvalidConfig {
-            field: "sim.robot_urdf".into(),
-            reason: "the scripted policy needs a robot with a prismatic gripper joint".into(),
-        })?;
-        let ready = sim.joint_positions();
-        let hand_down = pointing_down(&model.tcp_pose(&ready, sim.base_pose())?.rotation);
-        let movable = sim.movable_joints();
+        // The robot's facts (kinematics, base pose, start pose, joint order) exactly as the
+        // environment sees them, without building a world.
+        let robot = Robot::new(&config.sim_config()?)?;
+        let model = robot.model().clone();
+        let movable = robot.movable_joints();
         let dof_slots = model
             .actuated_joints()
             .iter()
             .map(|j| movable.iter().position(|m| m == j).unwrap_or(0))
             .collect();
-        let arm_dofs = (0..model.num_dofs())
-            .filter(|&d| d != gripper_dof)
-            .collect();
-        let layout = ObservationLayout::new(movable.len());
+        let task = make_task(config);
+        let layout = ObservationLayout::new(
+            movable.len(),
+            task.goal_dim(),
+            task.goal_descriptions(),
+            task.observation_slots(),
+        );
+        let action_dim = Controller::action_dim(config.control_mode, &robot);
         Ok(Self {
             config: config.clone(),
             params,
-            slots: Slots::new(&layout)?,
+            slots: Slots::new(&layout),
             observation_dim: layout.flat_dim(),
+            action_dim,
             cube_half: config.sim.cube.size / 2.0,
-            open_width: sim.gripper_max_width(),
-            base: *sim.base_pose(),
-            hand_down,
+            open_width: robot.gripper().max_width,
+            base: *robot.base_pose(),
+            hand_down: *robot.hand_down(),
             dof_slots,
-            arm_dofs,
+            arm_dofs: robot.arm_dofs().to_vec(),
             ik_options: IkOptions {
                 max_iterations: 30,
                 ..IkOptions::default()
             },
             ik_workspace: IkWorkspace::default(),
-            q: ready,
+            q: robot.start_configuration().to_vec(),
             model,
         })
     }
 
     /// Length of one action (4 for `ee`, 8 for `joints` control).
     pub fn action_dim(&self) -> usize {
-        match self.config.control_mode {
-            ControlMode::Ee => 4,
-            ControlMode::Joints => self.arm_dofs.len() + 1,
-        }
+        self.action_dim
     }
 
     /// Length of one observation.

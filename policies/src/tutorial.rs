@@ -8,7 +8,7 @@
 //! re-plans, so it is a test of the physics (does the friction grasp hold?), not a policy.
 
 use panda_rapier_core::nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use panda_rapier_core::{IkOptions, JointControl, Result, Simulation};
+use panda_rapier_core::{Gripper, IkOptions, JointControl, Result, Simulation};
 
 /// Parameters of the sequence.
 #[derive(Debug, Clone)]
@@ -108,7 +108,8 @@ pub fn run_until(
     plan: &TutorialSequence,
     last: Option<&str>,
 ) -> Result<SequenceReport> {
-    let cube_start = sim.cube_state().position;
+    let cube_id = sim.object("cube")?;
+    let cube_start = sim.object_state(cube_id).position;
     let above = cube_start + Vector3::new(0.0, 0.0, plan.approach_height);
     let lifted = cube_start + Vector3::new(0.0, 0.0, plan.lift_height);
     let carried = Vector3::new(plan.place_at.x, plan.place_at.y, lifted.z);
@@ -193,7 +194,7 @@ pub fn run_until(
 
     for (name, phase) in phases {
         let mut observe = |sim: &Simulation, report: &mut SequenceReport| {
-            let cube = sim.cube_state();
+            let cube = sim.object_state(cube_id);
             let tcp = sim.tcp_state();
             let finite = cube.position.iter().all(|v| v.is_finite())
                 && cube.linear_velocity.iter().all(|v| v.is_finite())
@@ -201,7 +202,7 @@ pub fn run_until(
             report.non_finite_seen |= !finite || !sim.is_finite();
             report.max_constraints_on_cube = report
                 .max_constraints_on_cube
-                .max(sim.constraints_on_cube());
+                .max(sim.constraints_on(cube_id));
             report.lift = report.lift.max(cube.position.z - cube_start.z);
             let pose = |b: &panda_rapier_core::BodyState| {
                 Isometry3::from_parts(Translation3::from(b.position), b.orientation)
@@ -264,12 +265,12 @@ pub fn run_until(
 
     (report.max_slip, report.max_slip_angle) = (grasp_slip.distance, grasp_slip.angle);
     (report.carry_slip, report.carry_slip_angle) = (carry_slip.distance, carry_slip.angle);
-    let cube = sim.cube_state();
-    report.final_position = cube.position;
-    let d = cube.position - plan.place_at;
+    let cube_state = sim.object_state(cube_id);
+    report.final_position = cube_state.position;
+    let d = cube_state.position - plan.place_at;
     report.placement_error = (d.x * d.x + d.y * d.y).sqrt();
-    report.final_speed = cube.linear_velocity.norm();
-    let contacts = sim.cube_contacts();
+    report.final_speed = cube_state.linear_velocity.norm();
+    let contacts = sim.object_contacts(cube_id);
     report.on_platform = contacts.platform && contacts.robot_links.is_empty();
     Ok(report)
 }
@@ -314,7 +315,7 @@ fn steps_for(seconds: f64, period: f64) -> usize {
 
 /// Position control of the arm joints (all actuated joints but the gripper's).
 fn command_arm(sim: &mut Simulation, q: &[f64]) -> Result<()> {
-    let gripper = sim.model().joint_index("panda_finger_joint1").ok();
+    let gripper = Gripper::of(sim.model()).map(|g| g.joint);
     let arm: Vec<usize> = sim
         .model()
         .actuated_joints()

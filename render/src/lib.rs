@@ -6,10 +6,10 @@
 //! onto the floor and the platform. The same state always gives the same bytes.
 //!
 //! ```
-//! use panda_rapier_core::{EnvConfig, PickAndPlaceEnv, ResetOptions};
+//! use panda_rapier_core::{EnvConfig, PandaEnv, ResetOptions};
 //! use panda_rapier_render::{RenderConfig, Renderer};
 //!
-//! let mut env = PickAndPlaceEnv::new(EnvConfig::default())?;
+//! let mut env = PandaEnv::new(EnvConfig::default())?;
 //! env.reset(Some(0), &ResetOptions::default())?;
 //! let mut renderer = Renderer::new(RenderConfig::from_json(r#"{"width": 320, "height": 240}"#)?)?;
 //! let frame = renderer.render(&env);

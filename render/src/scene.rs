@@ -2,7 +2,7 @@
 
 use nalgebra::Vector3;
 use panda_rapier_core::{
-    Error, PickAndPlaceEnv, Result, Simulation, VisualPrimitive, VisualShape, VisualTag,
+    Error, PandaEnv, Result, Simulation, VisualPrimitive, VisualShape, VisualTag,
 };
 use serde::{Deserialize, Serialize};
 
@@ -83,7 +83,7 @@ const GOAL_RADIUS: f64 = 0.015;
 const FLOOR_TILE: f64 = 0.25;
 const FLOOR_TILES: i32 = 20;
 
-/// Draws [`PickAndPlaceEnv`]s (or bare [`Simulation`]s) into a reusable [`Frame`].
+/// Draws [`PandaEnv`]s (or bare [`Simulation`]s) into a reusable [`Frame`].
 #[derive(Debug, Clone)]
 pub struct Renderer {
     config: RenderConfig,
@@ -128,12 +128,13 @@ impl Renderer {
     }
 
     /// Draws the environment's current state with its goal.
-    pub fn render(&mut self, env: &PickAndPlaceEnv) -> &Frame {
-        self.render_simulation(env.simulation(), Some(env.goal()))
+    pub fn render(&mut self, env: &PandaEnv) -> &Frame {
+        self.render_simulation(env.simulation(), env.goal())
     }
 
-    /// Draws a simulation, with a goal marker at `goal` if given.
-    pub fn render_simulation(&mut self, sim: &Simulation, goal: Option<Vector3<f64>>) -> &Frame {
+    /// Draws a simulation, with a goal marker at every position (consecutive triples) in
+    /// `goal`; non-finite positions are left out.
+    pub fn render_simulation(&mut self, sim: &Simulation, goal: &[f64]) -> &Frame {
         self.frame.clear(&self.background);
         self.primitives.clear();
         sim.visual_primitives(&mut self.primitives);
@@ -155,7 +156,7 @@ impl Renderer {
                     }
                     PLATFORM
                 }
-                VisualTag::Cube => CUBE,
+                VisualTag::Object { .. } => CUBE,
                 VisualTag::RobotLink { finger: true, .. } => HAND,
                 VisualTag::RobotLink { link, .. } => {
                     let name = links.get(link).map_or("", |l| l.name.as_str());
@@ -169,14 +170,17 @@ impl Renderer {
             let casts = !matches!(p.tag, VisualTag::Platform);
             self.draw_primitive(p, color, &light, casts);
         }
-        if let Some(goal) = goal.filter(|g| g.iter().all(|x| x.is_finite())) {
+        for goal in goal
+            .chunks_exact(3)
+            .filter(|g| g.iter().all(|x| x.is_finite()))
+        {
             let marker = VisualPrimitive {
                 shape: VisualShape::Sphere {
                     radius: GOAL_RADIUS,
                 },
-                pose: nalgebra::Isometry3::translation(goal.x, goal.y, goal.z),
+                pose: nalgebra::Isometry3::translation(goal[0], goal[1], goal[2]),
                 // Not drawn by tag: the colour is given below and the marker casts no shadow.
-                tag: VisualTag::Cube,
+                tag: VisualTag::Floor,
             };
             self.draw_primitive(&marker, GOAL, &light, false);
         }

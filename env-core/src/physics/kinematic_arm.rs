@@ -7,9 +7,41 @@ use rapier3d::parry::bounding_volume::BoundingVolume;
 use rapier3d::parry::query::intersection_test;
 
 use super::convert::pose_from_na;
-use super::{JointControl, JointState, KinematicArm, Simulation};
+use super::{Arm, JointControl, JointState, Simulation};
 use crate::config::ArmModel;
 use crate::error::{Error, Result};
+use crate::model::RobotModel;
+
+/// The arm of [`ArmModel::Kinematic`]: the joint trajectory its links follow.
+#[derive(Debug, Clone, Default)]
+pub(super) struct KinematicArm {
+    /// Position and velocity of every actuated dof (the gripper's entries are unused: the
+    /// fingers are dynamic).
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    /// Physics steps whose arm motion was refused because a link would enter the scenery.
+    blocked_steps: u64,
+
+    /// Scratch space, so stepping does not allocate.
+    q_next: Vec<f64>,
+    joint_positions: Vec<f64>,
+    link_poses: Vec<Isometry3<f64>>,
+}
+
+impl KinematicArm {
+    /// The arm of `model`, every joint at 0 and at rest.
+    pub(super) fn new(model: &RobotModel) -> Self {
+        let dofs = model.num_dofs();
+        Self {
+            q: vec![0.0; dofs],
+            qd: vec![0.0; dofs],
+            blocked_steps: 0,
+            q_next: vec![0.0; dofs],
+            joint_positions: vec![0.0; model.joints().len()],
+            link_poses: vec![Isometry3::identity(); model.links().len()],
+        }
+    }
+}
 
 impl Simulation {
     /// How the arm is simulated.
@@ -21,11 +53,14 @@ impl Simulation {
     /// would have taken one of its links into the floor or the platform; always 0 for the
     /// dynamic arm, whose links collide with the scenery instead.
     pub fn arm_blocked_steps(&self) -> u64 {
-        self.kinematic.as_ref().map_or(0, |arm| arm.blocked_steps)
+        match &self.arm {
+            Arm::Kinematic { arm, .. } => arm.blocked_steps,
+            Arm::Dynamic { .. } => 0,
+        }
     }
 
     pub(super) fn check_supported(&self, control: &JointControl, joint: usize) -> Result<()> {
-        if self.kinematic.is_some() && matches!(control, JointControl::Torque(_)) {
+        if matches!(self.arm, Arm::Kinematic { .. }) && matches!(control, JointControl::Torque(_)) {
             return Err(Error::JointNotCommandable {
                 name: self.model.joints()[joint].name.clone(),
                 reason: "torque control needs the dynamic arm (`arm = \"dynamic\"`); the \
@@ -34,6 +69,21 @@ impl Simulation {
             });
         }
         Ok(())
+    }
+
+    /// The kinematic arm's trajectory, taken out so it can be changed while the world is
+    /// borrowed; `None` for the dynamic arm. Put it back with `put_kinematic_arm`.
+    fn take_kinematic_arm(&mut self) -> Option<KinematicArm> {
+        match &mut self.arm {
+            Arm::Kinematic { arm, .. } => Some(std::mem::take(arm)),
+            Arm::Dynamic { .. } => None,
+        }
+    }
+
+    fn put_kinematic_arm(&mut self, trajectory: KinematicArm) {
+        if let Arm::Kinematic { arm, .. } = &mut self.arm {
+            *arm = trajectory;
+        }
     }
 
     /// The arm joints report the trajectory the links were placed along.
@@ -54,7 +104,7 @@ impl Simulation {
     /// Puts every link at configuration `q`, at rest (the gripper's multibody then follows its
     /// root).
     pub(super) fn teleport_kinematic_arm(&mut self, q: &[f64]) {
-        let Some(mut arm) = self.kinematic.take() else {
+        let Some(mut arm) = self.take_kinematic_arm() else {
             return;
         };
         arm.q.copy_from_slice(q);
@@ -73,7 +123,7 @@ impl Simulation {
             rb.set_linvel(Vector::ZERO, true);
             rb.set_angvel(Vector::ZERO, true);
         }
-        self.kinematic = Some(arm);
+        self.put_kinematic_arm(arm);
     }
 
     /// Moves the arm's joints one physics step along their commands (the dynamic arm's PD law,
@@ -81,7 +131,7 @@ impl Simulation {
     /// the floor or the platform: then the arm stops where it is and the step is counted in
     /// [`Simulation::arm_blocked_steps`].
     pub(super) fn advance_kinematic_arm(&mut self) {
-        let Some(mut arm) = self.kinematic.take() else {
+        let Some(mut arm) = self.take_kinematic_arm() else {
             return;
         };
         let dt = self.config.solver.dt;
@@ -164,23 +214,17 @@ impl Simulation {
                 }
             }
         }
-        self.kinematic = Some(arm);
+        self.put_kinematic_arm(arm);
     }
 
     /// Whether any robot link, at `link_poses`, intersects the floor or the platform (the
     /// fingers count: pushed into a surface they would drag the welded gripper along).
     fn links_enter_scenery(&self, link_poses: &[Isometry3<f64>]) -> bool {
         let colliders = &self.world.colliders;
-        let (Some(floor), Some(platform)) = (
-            colliders.get(self.floor_collider),
-            colliders.get(self.platform_collider),
-        ) else {
-            return false;
-        };
-        let scenery = [
-            (floor, floor.compute_aabb()),
-            (platform, platform.compute_aabb()),
-        ];
+        let scenery = [Some(self.floor_collider), self.platform_collider].map(|c| {
+            c.and_then(|c| colliders.get(c))
+                .map(|c| (c, c.compute_aabb()))
+        });
         self.robot_colliders.iter().any(|&(handle, link)| {
             let Some(collider) = colliders.get(handle) else {
                 return false;
@@ -188,7 +232,7 @@ impl Simulation {
             let local = collider.position_wrt_parent().copied().unwrap_or_default();
             let pose = pose_from_na(&link_poses[link]) * local;
             let aabb = collider.shape().compute_aabb(&pose);
-            scenery.iter().any(|(scenery, scenery_aabb)| {
+            scenery.iter().flatten().any(|(scenery, scenery_aabb)| {
                 // Pairs the collision filter skips (the base standing on the floor) don't count;
                 // disjoint bounding boxes (most links, most of the time) need no exact test.
                 collider.collision_groups().test(scenery.collision_groups())

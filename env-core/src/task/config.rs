@@ -1,7 +1,7 @@
 //! Validated configuration of the pick-and-place environment.
 //!
-//! Over 600 lines because [`EnvConfig`]'s doc test spells out every default value; the split
-//! by concern is issue 16's (Robot / Scene / Task configuration).
+//! Over 600 lines because [`EnvConfig`]'s doc test spells out every default value, which keeps
+//! the documented defaults true.
 
 use serde::{Deserialize, Serialize};
 
@@ -27,6 +27,25 @@ impl ControlMode {
         match self {
             ControlMode::Ee => "ee",
             ControlMode::Joints => "joints",
+        }
+    }
+}
+
+/// Which task an environment runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TaskKind {
+    /// Pick the cube up from the floor and put it on the goal on the platform
+    /// ([`crate::task::PickAndPlace`]).
+    #[default]
+    PickAndPlace,
+}
+
+impl TaskKind {
+    /// The name used in configs and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            TaskKind::PickAndPlace => "pick_and_place",
         }
     }
 }
@@ -146,6 +165,7 @@ impl Default for TaskThresholds {
 /// ```
 /// let defaults = r#"
 /// {
+///   "task": "pick_and_place",
 ///   "arm": "dynamic",
 ///   "control_mode": "ee",
 ///   "reward_type": "sparse",
@@ -240,6 +260,8 @@ impl Default for TaskThresholds {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct EnvConfig {
+    /// The task.
+    pub task: TaskKind,
     /// How actions drive the robot.
     pub control_mode: ControlMode,
     /// Sparse or dense reward.
@@ -251,7 +273,7 @@ pub struct EnvConfig {
     /// wrapper keeps time (Gymnasium's `TimeLimit`, which `gym.make` adds from the registry).
     /// The default, 70 steps (2.8 s at 25 Hz), is the episode length the scripted policy needs
     /// to place the cube in at least 99 % of episodes in both action modes (see
-    /// [`PickAndPlaceEnv`](crate::task::PickAndPlaceEnv), "Episode end").
+    /// [`PandaEnv`](crate::task::PandaEnv), "Episode end").
     pub max_episode_steps: Option<u32>,
     /// Actions per simulated second (Hz); `1 / (control_frequency * sim.solver.dt)` must be a
     /// whole number of physics steps.
@@ -304,6 +326,7 @@ pub struct EnvConfig {
 impl Default for EnvConfig {
     fn default() -> Self {
         Self {
+            task: TaskKind::PickAndPlace,
             control_mode: ControlMode::Ee,
             reward_type: RewardType::Sparse,
             reward_weights: RewardWeights::default(),

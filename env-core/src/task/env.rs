@@ -1,19 +1,21 @@
-//! [`PickAndPlaceEnv`]: one environment instance (reset, step, snapshot).
-//!
-//! Over 600 lines: episode drawing, the action controller, observation writing and rewards are
-//! still together here; the architecture issue moves them into a Robot / Task split.
+//! [`PandaEnv`]: one environment instance of any [`Task`] (reset, step, snapshot): the episode
+//! bookkeeping every task shares.
 
-use nalgebra::{UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ensure_len, Error, Result};
-use crate::kinematics::{pointing_down, IkOptions, IkWorkspace};
-use crate::physics::{JointControl, SimSnapshot, Simulation};
-use crate::task::config::{ControlMode, EnvConfig};
-use crate::task::observation::ObservationLayout;
-use crate::task::reward::{closeness, RewardContext, RewardFunction, RewardTerms};
+use crate::physics::{SimSnapshot, Simulation};
+use crate::robot::controller::{Controller, Plan};
+use crate::robot::Robot;
+use crate::task::config::EnvConfig;
+use crate::task::observation::{
+    InfoValue, ObservationLayout, GRIPPER_WIDTH, INFO_FIELDS, JOINT_POSITIONS, JOINT_VELOCITIES,
+    TCP_POSITION, TCP_VELOCITY,
+};
+use crate::task::reward::{RewardContext, RewardTerms};
+use crate::task::{make_task, EpisodeStart, Task, Verdict, View};
 
 /// Overrides for one reset (Gymnasium's `options`); anything left `None` is drawn at random.
 /// The random draws happen either way, so an override does not shift the rest of the episode's
@@ -81,6 +83,35 @@ pub struct StepInfo {
     pub arm_blocked: bool,
 }
 
+impl StepInfo {
+    /// Every entry, in [`INFO_FIELDS`] order (the info dict's keys).
+    pub fn values(&self) -> [InfoValue; INFO_FIELDS.len()] {
+        use InfoValue::{Bool, Float, Int};
+        let (c, t) = (&self.context, &self.terms);
+        [
+            Bool(self.is_success),
+            Bool(self.is_grasped),
+            Bool(self.is_lifted),
+            Bool(self.is_placed),
+            Bool(self.physics_unstable),
+            Float(self.goal_distance),
+            Float(c.reach as f64),
+            Float(c.grasp as f64),
+            Float(c.lift as f64),
+            Float(t.carry as f64),
+            Float(t.place as f64),
+            Float(t.release as f64),
+            Float(c.gripper_opening as f64),
+            Bool(c.cube_released),
+            Bool(c.cube_at_rest),
+            Bool(c.cube_on_platform),
+            Float(self.ik_position_error),
+            Bool(self.arm_blocked),
+            Int(self.elapsed_steps as i64),
+        ]
+    }
+}
+
 /// The outcome of one step.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Transition {
@@ -102,21 +133,21 @@ enum Status {
     Unstable,
 }
 
-/// Everything [`PickAndPlaceEnv::restore`] needs to continue bit-identically.
+/// Everything [`PandaEnv::restore`] needs to continue bit-identically.
 #[derive(Debug, Clone)]
 pub struct EnvSnapshot {
     sim: SimSnapshot,
     rng: ChaCha8Rng,
     seeded: bool,
-    goal: Vector3<f64>,
+    goal: Vec<f64>,
     elapsed: u32,
     status: Status,
     observation: Vec<f32>,
     info: StepInfo,
 }
 
-/// Franka Panda pick-and-place: pick the cube up from the floor and put it down on the goal on
-/// the platform (or hold it at a goal in the air).
+/// A Franka Panda environment running one [`Task`] (by default [`crate::task::PickAndPlace`]):
+/// pick the cube up from the floor and put it down on the goal on the platform.
 ///
 /// # Description
 /// The classic tutorial's scene: a Panda on a fixed base at the origin, a 0.3 m x 0.3 m x 0.1 m
@@ -133,24 +164,26 @@ pub struct EnvSnapshot {
 ///   arm joint, from the measured joint positions; then the gripper command.
 ///
 /// Joint targets are limited by the joints' velocity limits and ramped across the control period
-/// with a velocity feed-forward, so the arm moves at a steady speed. The gripper command is an
-/// absolute opening: -1 closes with `sim.motors.gripper_force` (a friction grasp), +1 opens fully
-/// (0.08 m), values between ask for a proportional opening.
+/// with a velocity feed-forward, so the arm moves at a steady speed
+/// ([`crate::robot::Controller`]). The gripper command is an absolute opening: -1 closes with
+/// `sim.motors.gripper_force` (a friction grasp), +1 opens fully (0.08 m), values between ask
+/// for a proportional opening.
 ///
 /// # Observation space
 /// The goal dict (`observation`, `achieved_goal`, `desired_goal`) laid out in one flat `f32`
-/// vector; every slot is listed in [`crate::task::observation`].
+/// vector ([`crate::task::observation`]); the pick-and-place table is in
+/// [`crate::task::pick_and_place`].
 ///
 /// # Rewards
-/// `sparse` (default): -1 until the cube is within `success_threshold` (0.05 m) of the goal, then
-/// 0. `dense`: staged terms, see [`crate::task::reward`]. Both are reproduced exactly by
-/// [`RewardFunction::compute_batch`] from the goals and the info's [`RewardContext`].
+/// The task's: for pick-and-place `sparse` (default) -1 until the cube is within
+/// `success_threshold` (0.05 m) of the goal, then 0; `dense`: staged terms, see
+/// [`crate::task::reward`]. Both are reproduced exactly by [`PandaEnv::compute_rewards`] from
+/// the goals and the info's [`RewardContext`].
 ///
 /// # Starting state
-/// The robot in its ready pose (plus `randomization.joint_noise`), the gripper open, the cube on
-/// the floor at a uniform position in `pick_region` with a uniform yaw in `cube_yaw_range`, the
-/// goal uniform in `goal_region` at the height of a cube resting on the platform, or with
-/// probability `goal_air_probability` up to `goal_air_height` above it.
+/// The robot in its start pose ([`Robot::start_configuration`], plus
+/// `randomization.joint_noise`), the gripper open, the objects and the goal where the task draws
+/// them.
 ///
 /// # Episode end
 /// Truncated after `max_episode_steps` (70) steps, or at once if the physics blows up (a
@@ -167,40 +200,34 @@ pub struct EnvSnapshot {
 /// 99.7 %. 65 is the shortest that reaches 99 % in both modes; 70 leaves a margin.
 ///
 /// # Info
-/// [`StepInfo`]: `is_success`, `is_grasped`, `is_lifted`, `is_placed`, `physics_unstable`, the goal
-/// distance, the reward terms, the IK error and the step count.
-pub struct PickAndPlaceEnv {
+/// [`StepInfo`], keyed as [`INFO_FIELDS`] lists.
+pub struct PandaEnv {
     config: EnvConfig,
     index: u64,
+    robot: Robot,
+    task: Box<dyn Task>,
+    controller: Controller,
     sim: Simulation,
     initial: SimSnapshot,
     layout: ObservationLayout,
-    reward_fn: RewardFunction,
     rng: ChaCha8Rng,
     seeded: bool,
     status: Status,
     elapsed: u32,
-    goal: Vector3<f64>,
-    ready: Vec<f64>,
-    /// The dofs an action drives besides the gripper, in order.
-    arm_dofs: Vec<usize>,
-    hand_down: UnitQuaternion<f64>,
-    ik_options: IkOptions,
-    ik_workspace: IkWorkspace,
-    slots: SlotRanges,
+    goal: Vec<f64>,
     observation: Vec<f32>,
     info: StepInfo,
-    // Scratch buffers, so a step does not allocate.
+    // Scratch space, so a step or reset does not allocate.
+    start: EpisodeStart,
     q: Vec<f64>,
-    targets: Vec<f64>,
-    controls: Vec<JointControl>,
-    joint_positions: Vec<f64>,
+    values: Vec<f64>,
     joint_velocities: Vec<f64>,
 }
 
-impl std::fmt::Debug for PickAndPlaceEnv {
+impl std::fmt::Debug for PandaEnv {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("PickAndPlaceEnv")
+        f.debug_struct("PandaEnv")
+            .field("task", &self.task.name())
             .field("index", &self.index)
             .field("control_mode", &self.config.control_mode)
             .field("reward_type", &self.config.reward_type)
@@ -217,8 +244,8 @@ pub fn env_rng(seed: u64, index: u64) -> ChaCha8Rng {
     rng
 }
 
-impl PickAndPlaceEnv {
-    /// Builds environment 0 (see [`PickAndPlaceEnv::with_index`]).
+impl PandaEnv {
+    /// Builds environment 0 (see [`PandaEnv::with_index`]).
     pub fn new(config: EnvConfig) -> Result<Self> {
         Self::with_index(config, 0)
     }
@@ -227,51 +254,43 @@ impl PickAndPlaceEnv {
     /// vector environment behaves exactly like this one).
     pub fn with_index(config: EnvConfig, index: u64) -> Result<Self> {
         config.validate()?;
-        let sim = Simulation::new(config.sim_config()?)?;
-        let gripper_dof = sim.gripper_dof().ok_or_else(|| Error::InvalidConfig {
-            field: "sim.robot_urdf".into(),
-            reason: "the pick-and-place task needs a robot with a prismatic gripper joint".into(),
-        })?;
-        let num_dofs = sim.model().num_dofs();
-        let arm_dofs: Vec<usize> = (0..num_dofs).filter(|&d| d != gripper_dof).collect();
-        let ready = sim.joint_positions();
-        let hand_down = pointing_down(&sim.model().tcp_pose(&ready, sim.base_pose())?.rotation);
-        let layout = ObservationLayout::new(sim.movable_joints().len());
+        let sim_config = config.sim_config()?;
+        let robot = Robot::new(&sim_config)?;
+        let mut task = make_task(&config);
+        let scene = task.scene(&config);
+        let sim = Simulation::with_scene(sim_config, robot.model().clone(), scene)?;
+        task.bind(&sim)?;
+        let layout = ObservationLayout::new(
+            robot.movable_joints().len(),
+            task.goal_dim(),
+            task.goal_descriptions(),
+            task.observation_slots(),
+        );
         let initial = sim.snapshot();
-        let reward_fn = RewardFunction {
-            reward_type: config.reward_type,
-            success_threshold: config.success_threshold,
-            weights: config.reward_weights,
-        };
+        let controller = Controller::new(&config, &robot);
+        let num_dofs = robot.model().num_dofs();
         let num_joints = layout.num_joints();
         let flat_dim = layout.flat_dim();
+        let goal_dim = layout.goal_dim();
         Ok(Self {
             config,
             index,
+            robot,
+            task,
+            controller,
             sim,
             initial,
             layout,
-            reward_fn,
             rng: env_rng(0, index),
             seeded: false,
             status: Status::NeverReset,
             elapsed: 0,
-            goal: Vector3::zeros(),
-            ready,
-            arm_dofs,
-            hand_down,
-            ik_options: IkOptions {
-                max_iterations: 30,
-                ..IkOptions::default()
-            },
-            ik_workspace: IkWorkspace::default(),
-            slots: SlotRanges::new(&layout),
+            goal: vec![0.0; goal_dim],
             observation: vec![0.0; flat_dim],
             info: StepInfo::default(),
+            start: EpisodeStart::default(),
             q: vec![0.0; num_dofs],
-            targets: vec![0.0; num_dofs],
-            controls: vec![JointControl::position(0.0); num_dofs],
-            joint_positions: vec![0.0; num_joints],
+            values: vec![0.0; flat_dim],
             joint_velocities: vec![0.0; num_joints],
         })
     }
@@ -286,6 +305,16 @@ impl PickAndPlaceEnv {
         self.index
     }
 
+    /// The task.
+    pub fn task(&self) -> &dyn Task {
+        self.task.as_ref()
+    }
+
+    /// The robot (model, gripper, start pose).
+    pub fn robot(&self) -> &Robot {
+        &self.robot
+    }
+
     /// Where everything sits in the observation.
     pub fn layout(&self) -> &ObservationLayout {
         &self.layout
@@ -293,10 +322,7 @@ impl PickAndPlaceEnv {
 
     /// Length of an action: 4 for `ee`, one per actuated joint (8 for the Panda) for `joints`.
     pub fn action_dim(&self) -> usize {
-        match self.config.control_mode {
-            ControlMode::Ee => 4,
-            ControlMode::Joints => self.arm_dofs.len() + 1,
-        }
+        Controller::action_dim(self.config.control_mode, &self.robot)
     }
 
     /// Seconds of simulated time per step (the control period).
@@ -304,9 +330,16 @@ impl PickAndPlaceEnv {
         self.sim.control_period()
     }
 
-    /// The reward function ([`RewardFunction::compute_batch`] is `compute_reward`).
-    pub fn reward_function(&self) -> &RewardFunction {
-        &self.reward_fn
+    /// The task's reward for `n` transitions, recomputed from `n x goal_dim` goals and one
+    /// reward context per transition (optional for the sparse reward): `compute_reward`.
+    pub fn compute_rewards(
+        &self,
+        achieved: &[f32],
+        desired: &[f32],
+        contexts: &[RewardContext],
+        out: &mut [f32],
+    ) -> Result<()> {
+        self.task.compute_rewards(achieved, desired, contexts, out)
     }
 
     /// The current observation (flat layout).
@@ -319,9 +352,9 @@ impl PickAndPlaceEnv {
         &self.info
     }
 
-    /// The current goal for the cube's centre (m).
-    pub fn goal(&self) -> Vector3<f64> {
-        self.goal
+    /// The current goal (`goal_dim` entries; for pick-and-place the cube centre's position, m).
+    pub fn goal(&self) -> &[f64] {
+        &self.goal
     }
 
     /// Steps taken in the current episode.
@@ -329,25 +362,20 @@ impl PickAndPlaceEnv {
         self.elapsed
     }
 
-    /// The orientation the `ee` control holds the TCP at.
-    pub fn hand_down(&self) -> UnitQuaternion<f64> {
-        self.hand_down
-    }
-
     /// The simulation, for introspection (robot model, link states, kinematics).
     pub fn simulation(&self) -> &Simulation {
         &self.sim
     }
 
-    /// The simulation, to drive the robot directly; the next [`PickAndPlaceEnv::step`] overrides
-    /// the joint commands. The observation follows at the next step or reset, or at once with
-    /// [`PickAndPlaceEnv::refresh`].
+    /// The simulation, to drive the robot directly; the next [`PandaEnv::step`] overrides the
+    /// joint commands. The observation follows at the next step or reset, or at once with
+    /// [`PandaEnv::refresh`].
     pub fn simulation_mut(&mut self) -> &mut Simulation {
         &mut self.sim
     }
 
     /// Recomputes the observation and info from the simulation as it is now (after changing
-    /// it through [`PickAndPlaceEnv::simulation_mut`]); the step count is unchanged.
+    /// it through [`PandaEnv::simulation_mut`]); the step count is unchanged.
     pub fn refresh(&mut self) -> Result<&StepInfo> {
         if self.status == Status::NeverReset {
             return Err(Error::ResetNeeded {
@@ -362,7 +390,7 @@ impl PickAndPlaceEnv {
         }
         let ik_error = self.info.ik_position_error;
         let opening = self.info.context.gripper_opening as f64;
-        self.info = self.evaluate(false, ik_error, opening).0;
+        self.info = self.step_info(&self.judge(opening), false, ik_error);
         Ok(&self.info)
     }
 
@@ -388,67 +416,36 @@ impl PickAndPlaceEnv {
     }
 
     fn reset_episode(&mut self, options: &ResetOptions) -> Result<()> {
-        let config = &self.config;
-        let rng = &mut self.rng;
-        let mut draw = || rng.random::<f64>();
-        // Always the same draws in the same order: overrides and switched-off randomisation do
-        // not shift the others.
-        let cube_xy = config.pick_region.lerp([draw(), draw()]);
-        let yaw_u = draw();
-        let goal_xy = config.goal_region.lerp([draw(), draw()]);
-        let air_u = draw();
-        let air_height_u = draw();
-        let size_u = draw();
-        let mass_u = draw();
-        let friction_u = draw();
-        let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
-            range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
-        };
-        let r = &config.randomization;
-        let cube = &config.sim.cube;
-        let size = pick(r.cube_size, cube.size, size_u);
-        let mass = pick(r.cube_mass, cube.mass, mass_u);
-        let friction = pick(r.cube_friction, cube.friction, friction_u);
-        // The start configuration goes into the targets scratch buffer: no allocation.
-        let q = &mut self.targets;
-        q.copy_from_slice(&self.ready);
-        for &dof in &self.arm_dofs {
-            let u = draw();
-            q[dof] += r.joint_noise * (2.0 * u - 1.0);
-        }
-        let yaw = config.cube_yaw_range[0]
-            + (config.cube_yaw_range[1] - config.cube_yaw_range[0]) * yaw_u;
-        let platform_top = config.sim.platform.top_center[2];
-        let mut goal = Vector3::new(goal_xy[0], goal_xy[1], platform_top + size / 2.0);
-        if air_u < config.goal_air_probability {
-            let [low, high] = config.goal_air_height;
-            goal.z += low + (high - low) * air_height_u;
-        }
-
-        let cube_position = options.cube_position.map_or(
-            Vector3::new(cube_xy[0], cube_xy[1], size / 2.0),
-            Vector3::from,
-        );
-        let cube_yaw = options.cube_yaw.unwrap_or(yaw);
-        if let Some(g) = options.goal {
-            goal = Vector3::from(g);
+        // The task draws first, then the robot's joint noise: always the same draws in the same
+        // order, whatever the overrides.
+        self.task
+            .draw_episode(&mut self.rng, options, &mut self.start);
+        // The start configuration goes into the `q` scratch buffer: no allocation.
+        let noise = self.config.randomization.joint_noise;
+        self.q.copy_from_slice(self.robot.start_configuration());
+        for &dof in self.robot.arm_dofs() {
+            let u = self.rng.random::<f64>();
+            self.q[dof] += noise * (2.0 * u - 1.0);
         }
         if let Some(start) = &options.joint_positions {
-            q.copy_from_slice(start);
+            self.q.copy_from_slice(start);
         }
 
         self.sim.restore(&self.initial)?;
-        if r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some() {
-            self.sim.set_cube_properties(size, mass, friction)?;
+        for object in &self.start.objects {
+            if let Some((size, mass, friction)) = object.properties {
+                self.sim
+                    .set_object_properties(object.object, size, mass, friction)?;
+            }
         }
-        self.sim.set_joint_positions(&self.targets)?;
+        self.sim.set_joint_positions(&self.q)?;
         let width = self.sim.gripper_width();
         self.sim.set_gripper(width, None)?;
-        self.sim.set_cube_pose(
-            &cube_position,
-            &UnitQuaternion::from_axis_angle(&Vector3::z_axis(), cube_yaw),
-        )?;
-        self.goal = goal;
+        for object in &self.start.objects {
+            self.sim
+                .set_object_pose(object.object, &object.position, &object.orientation)?;
+        }
+        self.goal.copy_from_slice(&self.start.goal);
         self.elapsed = 0;
         self.status = Status::Running;
         if !self.write_observation() {
@@ -459,8 +456,8 @@ impl PickAndPlaceEnv {
                 reason: "the start state is not finite".into(),
             });
         }
-        let opening = self.gripper_opening(self.sim.gripper_width());
-        self.info = self.evaluate(false, f64::NAN, opening).0;
+        let opening = self.robot.gripper_opening(self.sim.gripper_width());
+        self.info = self.step_info(&self.judge(opening), false, f64::NAN);
         Ok(())
     }
 
@@ -476,7 +473,7 @@ impl PickAndPlaceEnv {
         Ok(())
     }
 
-    /// Whether [`PickAndPlaceEnv::step`] would refuse for lack of a reset.
+    /// Whether [`PandaEnv::step`] would refuse for lack of a reset.
     pub fn needs_reset(&self) -> bool {
         self.status != Status::Running
     }
@@ -502,23 +499,24 @@ impl PickAndPlaceEnv {
         Ok(self.step_checked(action))
     }
 
-    /// [`PickAndPlaceEnv::step`] for an action already checked by
-    /// [`PickAndPlaceEnv::check_action`] on a running environment.
+    /// [`PandaEnv::step`] for an action already checked by [`PandaEnv::check_action`] on a
+    /// running environment.
     pub(crate) fn step_checked(&mut self, action: &[f32]) -> Transition {
-        let (ik_error, width) = self.plan_action(action);
+        let plan: Plan = self.controller.plan(&self.robot, &self.sim, action);
         let blocked_before = self.sim.arm_blocked_steps();
-        self.drive(width);
+        self.controller.drive(&mut self.sim, &plan);
         self.elapsed = self.elapsed.saturating_add(1);
         let stable = self.is_stable() && self.write_observation();
         if !stable {
             self.status = Status::Unstable;
         }
-        let opening = self.gripper_opening(width);
-        let (mut info, reward) = self.evaluate(!stable, ik_error, opening);
+        let opening = self.robot.gripper_opening(plan.gripper_width);
+        let verdict = self.judge(opening);
+        let mut info = self.step_info(&verdict, !stable, plan.ik_position_error);
         info.arm_blocked = self.sim.arm_blocked_steps() > blocked_before;
         self.info = info;
         Transition {
-            reward,
+            reward: verdict.reward,
             terminated: self.config.terminate_on_success && info.is_success,
             truncated: !stable
                 || self
@@ -529,94 +527,6 @@ impl PickAndPlaceEnv {
         }
     }
 
-    /// Turns `action` into joint targets (`self.targets`, from the measured `self.q`), limited
-    /// to what the joints' velocity limits allow in one control period; returns the IK's
-    /// remaining position error and the gripper opening asked for.
-    fn plan_action(&mut self, action: &[f32]) -> (f64, f64) {
-        let a = |i: usize| action[i].clamp(-1.0, 1.0) as f64;
-        // The sim is finite here (a blow-up stops the episode), so these cannot fail.
-        let _ = self.sim.joint_positions_into(&mut self.q);
-        self.targets.copy_from_slice(&self.q);
-        let mut ik_error = 0.0;
-        let gripper_action = match self.config.control_mode {
-            ControlMode::Ee => {
-                let [low, high] = self.config.ee_workspace;
-                let tcp = self.sim.tcp_state().position;
-                let mut target = Vector3::zeros();
-                for i in 0..3 {
-                    target[i] = (tcp[i] + a(i) * self.config.ee_step).clamp(low[i], high[i]);
-                }
-                let lowest = self.config.surface_height(target.x, target.y)
-                    + self.config.ee_surface_clearance;
-                target.z = target.z.max(lowest);
-                if let Ok(report) = self.sim.model().inverse_kinematics_in(
-                    &target,
-                    Some(&self.hand_down),
-                    &self.q,
-                    self.sim.base_pose(),
-                    &self.ik_options,
-                    &mut self.ik_workspace,
-                ) {
-                    for &dof in &self.arm_dofs {
-                        self.targets[dof] = self.ik_workspace.q[dof];
-                    }
-                    ik_error = report.position_error;
-                }
-                a(3)
-            }
-            ControlMode::Joints => {
-                for (i, &dof) in self.arm_dofs.iter().enumerate() {
-                    self.targets[dof] = self.q[dof] + a(i) * self.config.joint_step;
-                }
-                a(self.arm_dofs.len())
-            }
-        };
-        // Slow the whole motion down until every joint keeps within its velocity limit:
-        // clamping joints one by one would bend the hand's path away from the commanded
-        // direction (seen as centimetre-scale sideways swerves on fast descents).
-        let period = self.sim.control_period();
-        let mut slowdown = 1.0f64;
-        for &dof in &self.arm_dofs {
-            let joint = self.sim.model().actuated_joints()[dof];
-            let limit = self.sim.model().joints()[joint].max_velocity * period;
-            if limit > 0.0 {
-                slowdown = slowdown.max((self.targets[dof] - self.q[dof]).abs() / limit);
-            }
-        }
-        for &dof in &self.arm_dofs {
-            self.targets[dof] = self.q[dof] + (self.targets[dof] - self.q[dof]) / slowdown;
-        }
-        let width = (gripper_action + 1.0) / 2.0 * self.sim.gripper_max_width();
-        (ik_error, width)
-    }
-
-    /// Steps the physics through one control period, moving the arm's position targets
-    /// linearly from the measured configuration to the planned one with a matching velocity
-    /// feed-forward: the arm moves at a steady speed instead of lunging at a target a whole
-    /// period away (which drew peaks of 2 m/s and 40 m/s^2 at the hand and shook the cube
-    /// loose).
-    fn drive(&mut self, gripper_width: f64) {
-        let substeps = self.sim.config().solver.substeps;
-        let period = self.sim.control_period();
-        for k in 1..=substeps {
-            let fraction = k as f64 / substeps as f64;
-            for (control, (&start, &end)) in self
-                .controls
-                .iter_mut()
-                .zip(self.q.iter().zip(self.targets.iter()))
-            {
-                *control = JointControl::Position {
-                    target: start + fraction * (end - start),
-                    target_velocity: (end - start) / period,
-                    max_force: None,
-                };
-            }
-            let _ = self.sim.set_joint_controls(&self.controls);
-            let _ = self.sim.set_gripper(gripper_width, None);
-            self.sim.step();
-        }
-    }
-
     fn is_stable(&self) -> bool {
         let t = &self.config.thresholds;
         let (v, w) = self.sim.max_body_speeds();
@@ -624,103 +534,65 @@ impl PickAndPlaceEnv {
         v <= t.unstable_linear_speed && w <= t.unstable_angular_speed && self.sim.is_finite()
     }
 
-    /// Writes the observation; false (and the previous observation kept) if any value is not
-    /// finite.
+    /// Writes the observation: the goals, the robot's slots and the task's; false (and the
+    /// previous observation kept) if any value is not finite.
     fn write_observation(&mut self) -> bool {
+        let l = &self.layout;
+        let values = &mut self.values;
+        let positions = &mut values[l.robot_slot(JOINT_POSITIONS)];
         let _ = self
             .sim
-            .movable_joint_states_into(&mut self.joint_positions, &mut self.joint_velocities);
+            .movable_joint_states_into(positions, &mut self.joint_velocities);
+        values[l.robot_slot(JOINT_VELOCITIES)].copy_from_slice(&self.joint_velocities);
         let tcp = self.sim.tcp_state();
-        let cube = self.sim.cube_state();
-        let width = self.sim.gripper_width();
-        let mut orientation = cube.orientation.coords;
-        if orientation.w < 0.0 {
-            orientation = -orientation;
-        }
-        let relative = cube.position - tcp.position;
-        let sources: [&[f64]; 12] = [
-            cube.position.as_slice(),
-            self.goal.as_slice(),
-            &self.joint_positions,
-            &self.joint_velocities,
-            tcp.position.as_slice(),
-            tcp.linear_velocity.as_slice(),
-            std::slice::from_ref(&width),
-            cube.position.as_slice(),
-            &[orientation.x, orientation.y, orientation.z, orientation.w],
-            cube.linear_velocity.as_slice(),
-            cube.angular_velocity.as_slice(),
-            relative.as_slice(),
-        ];
-        if !sources.iter().all(|s| s.iter().all(|v| v.is_finite())) {
+        values[l.robot_slot(TCP_POSITION)].copy_from_slice(tcp.position.as_slice());
+        values[l.robot_slot(TCP_VELOCITY)].copy_from_slice(tcp.linear_velocity.as_slice());
+        values[l.robot_slot(GRIPPER_WIDTH)][0] = self.sim.gripper_width();
+        values[l.desired_goal()].copy_from_slice(&self.goal);
+        let (goals, rest) = values.split_at_mut(l.observation().start);
+        let extras = &mut rest[l.task_slot(0).start - l.observation().start..];
+        self.task.observe(
+            &self.sim,
+            &tcp,
+            &self.goal,
+            &mut goals[l.achieved_goal()],
+            extras,
+        );
+        if !values.iter().all(|v| v.is_finite()) {
             return false;
         }
-        for (o, v) in self
-            .observation
-            .iter_mut()
-            .zip(sources.iter().flat_map(|s| s.iter()))
-        {
+        for (o, v) in self.observation.iter_mut().zip(values.iter()) {
             *o = *v as f32;
         }
         true
     }
 
-    /// A gripper width as a fraction of the full opening, in [0, 1].
-    fn gripper_opening(&self, width: f64) -> f64 {
-        let max = self.sim.gripper_max_width();
-        if max > 0.0 {
-            (width / max).clamp(0.0, 1.0)
-        } else {
-            0.0
-        }
+    /// The task's verdict on the current observation; `opening` is the gripper opening (0
+    /// closed, 1 fully open) the last action asked for.
+    fn judge(&self, opening: f64) -> Verdict {
+        self.task.evaluate(&View {
+            sim: &self.sim,
+            robot: &self.robot,
+            observation: &self.observation,
+            layout: &self.layout,
+            gripper_opening: opening,
+        })
     }
 
-    /// The info and the reward for the current observation; `opening` is the gripper opening
-    /// (0 closed, 1 fully open) the last action asked for.
-    fn evaluate(&self, unstable: bool, ik_error: f64, opening: f64) -> (StepInfo, f32) {
-        let t = &self.config.thresholds;
-        let touch = self.sim.cube_touch();
-        let l = &self.layout;
-        let obs = &self.observation;
-        let cube_speed = norm(&obs[self.slots.cube_linear_velocity.clone()]);
-        let cube_spin = norm(&obs[self.slots.cube_angular_velocity.clone()]);
-        let reach_distance = norm(&obs[self.slots.cube_relative_position.clone()]);
-        let cube_z = obs[l.achieved_goal()][2] as f64;
-        let (size, _, _) = self.sim.cube_properties();
-        let platform_height = self.config.sim.platform.top_center[2];
-        let is_grasped = touch.finger_forces.iter().all(|&f| f >= t.grasp_force);
-        let lift = if platform_height > 0.0 {
-            ((cube_z - size / 2.0) / platform_height).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let w = &self.config.reward_weights;
-        let context = RewardContext {
-            reach: w.reach as f32 * closeness(reach_distance),
-            grasp: if is_grasped { w.grasp as f32 } else { 0.0 },
-            lift: w.lift as f32 * lift as f32,
-            cube_released: !touch.robot_touching(),
-            cube_at_rest: cube_speed < t.rest_linear_speed && cube_spin < t.rest_angular_speed,
-            cube_on_platform: touch.platform,
-            gripper_opening: opening as f32,
-        };
-        let verdict =
-            self.reward_fn
-                .evaluate(&obs[l.achieved_goal()], &obs[l.desired_goal()], &context);
-        let info = StepInfo {
+    fn step_info(&self, verdict: &Verdict, unstable: bool, ik_error: f64) -> StepInfo {
+        StepInfo {
             is_success: verdict.is_success,
-            is_grasped,
-            is_lifted: is_grasped && !touch.floor && !touch.platform,
+            is_grasped: verdict.is_grasped,
+            is_lifted: verdict.is_lifted,
             is_placed: verdict.is_placed,
             physics_unstable: unstable,
-            goal_distance: verdict.distance,
-            context,
+            goal_distance: verdict.goal_distance,
+            context: verdict.context,
             terms: verdict.terms,
             ik_position_error: ik_error,
             elapsed_steps: self.elapsed,
             arm_blocked: false,
-        };
-        (info, verdict.reward)
+        }
     }
 
     /// Copies the whole state: physics, random stream, goal, episode clock.
@@ -729,7 +601,7 @@ impl PickAndPlaceEnv {
             sim: self.sim.snapshot(),
             rng: self.rng.clone(),
             seeded: self.seeded,
-            goal: self.goal,
+            goal: self.goal.clone(),
             elapsed: self.elapsed,
             status: self.status,
             observation: self.observation.clone(),
@@ -737,10 +609,12 @@ impl PickAndPlaceEnv {
         }
     }
 
-    /// Returns to a state taken with [`PickAndPlaceEnv::snapshot`] (from this environment or one
-    /// with an equal configuration); stepping on continues bit-identically.
+    /// Returns to a state taken with [`PandaEnv::snapshot`] (from this environment or one with
+    /// an equal configuration); stepping on continues bit-identically.
     pub fn restore(&mut self, snapshot: &EnvSnapshot) -> Result<()> {
-        if snapshot.observation.len() != self.observation.len() {
+        if snapshot.observation.len() != self.observation.len()
+            || snapshot.goal.len() != self.goal.len()
+        {
             return Err(Error::SnapshotMismatch {
                 reason: "its observation layout differs".into(),
             });
@@ -748,37 +622,11 @@ impl PickAndPlaceEnv {
         self.sim.restore(&snapshot.sim)?;
         self.rng.clone_from(&snapshot.rng);
         self.seeded = snapshot.seeded;
-        self.goal = snapshot.goal;
+        self.goal.copy_from_slice(&snapshot.goal);
         self.elapsed = snapshot.elapsed;
         self.status = snapshot.status;
         self.observation.copy_from_slice(&snapshot.observation);
         self.info = snapshot.info;
         Ok(())
     }
-}
-
-/// The observation slots the task reads every step, looked up once.
-#[derive(Debug, Clone)]
-struct SlotRanges {
-    cube_linear_velocity: std::ops::Range<usize>,
-    cube_angular_velocity: std::ops::Range<usize>,
-    cube_relative_position: std::ops::Range<usize>,
-}
-
-impl SlotRanges {
-    fn new(layout: &ObservationLayout) -> Self {
-        let slot = |name: &str| layout.slot(name).unwrap_or(0..0);
-        Self {
-            cube_linear_velocity: slot("cube_linear_velocity"),
-            cube_angular_velocity: slot("cube_angular_velocity"),
-            cube_relative_position: slot("cube_relative_position"),
-        }
-    }
-}
-
-fn norm(v: &[f32]) -> f64 {
-    v.iter()
-        .map(|&x| (x as f64) * (x as f64))
-        .sum::<f64>()
-        .sqrt()
 }

@@ -1,13 +1,155 @@
-//! The pick-and-place task on top of the [`crate::Simulation`]: configuration, observation
-//! layout, rewards, and the environment itself. Nothing here touches the physics engine; it
-//! goes through [`crate::Simulation`].
+//! Tasks on top of the robot and the [`crate::Simulation`]: what a task is ([`Task`]), the
+//! environment every task runs in ([`PandaEnv`]), the configuration, the observation and info
+//! schema, and rewards. Nothing here touches the physics engine; it goes through
+//! [`crate::Simulation`].
+//!
+//! A task decides the scene (platform and objects), how an episode starts, its goals, the
+//! observation entries it adds after the robot's, and its reward and success predicates. The
+//! robot, its action controller, episode bookkeeping, blow-up detection and snapshots are the
+//! environment's, the same for every task. [`PickAndPlace`] is the first task; adding one is a
+//! new file here implementing [`Task`] and an entry in [`TaskKind`].
 
 pub mod config;
 pub mod env;
 pub mod observation;
+pub mod pick_and_place;
 pub mod reward;
 
-pub use config::{ControlMode, EnvConfig, Randomization, Region, RewardType, TaskThresholds};
-pub use env::{env_rng, EnvSnapshot, PickAndPlaceEnv, ResetOptions, StepInfo, Transition};
-pub use observation::{ObservationLayout, Slot, GOAL_DIM};
+use nalgebra::{UnitQuaternion, Vector3};
+use rand_chacha::ChaCha8Rng;
+
+pub use config::{
+    ControlMode, EnvConfig, Randomization, Region, RewardType, TaskKind, TaskThresholds,
+};
+pub use env::{env_rng, EnvSnapshot, PandaEnv, ResetOptions, StepInfo, Transition};
+pub use observation::{
+    InfoField, InfoType, InfoValue, ObservationLayout, Slot, SlotSpec, INFO_FIELDS,
+    REWARD_CONTEXT_KEYS,
+};
+pub use pick_and_place::PickAndPlace;
 pub use reward::{RewardContext, RewardFunction, RewardTerms, RewardWeights};
+
+use crate::error::Result;
+use crate::physics::{BodyState, ObjectId, Scene, Simulation};
+use crate::robot::Robot;
+
+/// How one object starts an episode.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjectStart {
+    /// The object.
+    pub object: ObjectId,
+    /// Position of its centre (m).
+    pub position: Vector3<f64>,
+    /// Orientation.
+    pub orientation: UnitQuaternion<f64>,
+    /// Edge length (m), mass (kg) and friction for this episode, when randomised.
+    pub properties: Option<(f64, f64, f64)>,
+}
+
+/// How an episode starts: where the objects go and the goal. A task fills it in
+/// [`Task::draw_episode`]; the environment applies it (properties, then the robot, then object
+/// poses). Kept between resets, so resetting does not allocate.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct EpisodeStart {
+    /// The objects to place.
+    pub objects: Vec<ObjectStart>,
+    /// The goal (the task's `goal_dim` entries).
+    pub goal: Vec<f64>,
+}
+
+/// What the task says about the current state.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Verdict {
+    /// The success predicate.
+    pub is_success: bool,
+    /// Both fingers squeeze the object with at least the grasp force.
+    pub is_grasped: bool,
+    /// Grasped and touching neither the floor nor the platform.
+    pub is_lifted: bool,
+    /// Released, at rest, on its support and within the threshold.
+    pub is_placed: bool,
+    /// Distance from the achieved to the desired goal.
+    pub goal_distance: f64,
+    /// Goal-free inputs of the reward.
+    pub context: RewardContext,
+    /// The dense reward's weighted terms.
+    pub terms: RewardTerms,
+    /// The reward.
+    pub reward: f32,
+}
+
+/// What a task sees of the world when it judges a step.
+#[derive(Debug, Clone, Copy)]
+pub struct View<'a> {
+    /// The world.
+    pub sim: &'a Simulation,
+    /// The robot.
+    pub robot: &'a Robot,
+    /// The observation just written (flat layout).
+    pub observation: &'a [f32],
+    /// Where everything sits in it.
+    pub layout: &'a ObservationLayout,
+    /// The gripper opening the last action asked for, from 0 (closed) to 1 (open).
+    pub gripper_opening: f64,
+}
+
+/// A manipulation task: everything that differs between tasks. Implementations hold their
+/// configuration and the handles of their objects, never episode state (the environment keeps
+/// that: the goal, the step count, the random stream), so snapshots of the environment are
+/// complete.
+pub trait Task: Send + Sync + std::fmt::Debug {
+    /// The task's name in configurations (`"pick_and_place"`).
+    fn name(&self) -> &'static str;
+
+    /// The platform and objects the world must hold.
+    fn scene(&self, config: &EnvConfig) -> Scene;
+
+    /// Finds the task's objects in the world built from [`Task::scene`].
+    fn bind(&mut self, sim: &Simulation) -> Result<()>;
+
+    /// Length of each goal.
+    fn goal_dim(&self) -> usize;
+
+    /// What `achieved_goal` and `desired_goal` hold.
+    fn goal_descriptions(&self) -> [&'static str; 2];
+
+    /// The task's slots of `observation`, after the robot's.
+    fn observation_slots(&self) -> &'static [SlotSpec];
+
+    /// Draws how the next episode starts into `start` (the goal sized [`Task::goal_dim`]),
+    /// honouring the overrides in `options`. The draws from `rng` must be the same in number
+    /// and order whatever the overrides and randomisation switches, so one does not shift the
+    /// others.
+    fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart);
+
+    /// Writes the achieved goal and the task's observation entries (`extras`, laid out as
+    /// [`Task::observation_slots`]) from the world; `tcp` is the tool centre point's state.
+    fn observe(
+        &self,
+        sim: &Simulation,
+        tcp: &BodyState,
+        goal: &[f64],
+        achieved: &mut [f64],
+        extras: &mut [f64],
+    );
+
+    /// Judges the state just observed: predicates, reward context and reward.
+    fn evaluate(&self, view: &View<'_>) -> Verdict;
+
+    /// The reward of `n` transitions recomputed from goals (`n x goal_dim` each) and reward
+    /// contexts (see [`RewardFunction::compute_batch`]), written into `out`.
+    fn compute_rewards(
+        &self,
+        achieved: &[f32],
+        desired: &[f32],
+        contexts: &[RewardContext],
+        out: &mut [f32],
+    ) -> Result<()>;
+}
+
+/// Builds the task `config` names.
+pub fn make_task(config: &EnvConfig) -> Box<dyn Task> {
+    match config.task {
+        TaskKind::PickAndPlace => Box::new(PickAndPlace::new(config)),
+    }
+}

@@ -1,64 +1,146 @@
-//! The observation layout: one flat `f32` vector, and the goal dict as views into it.
+//! The observation and info schema: one definition that the environment writes by, and that
+//! Python (through `_native`) builds its spaces, dict splitting and reward contexts from.
 //!
-//! The flat vector is `[achieved_goal, desired_goal, observation]`, the order in which
-//! Gymnasium's `spaces.flatten` lays out the goal dict (keys sorted), so flattening the dict
-//! gives exactly the flat layout. For the Panda (9 moving joints: 7 arm joints and 2 fingers)
-//! `observation` has 41 entries and the flat vector 47. All positions and velocities are in
-//! the world frame (m, m/s, rad, rad/s).
-//!
-//! | flat index | dict key / `observation` index | slot | size | meaning |
-//! |---|---|---|---|---|
-//! | 0..3 | `achieved_goal` | `achieved_goal` | 3 | cube centre position |
-//! | 3..6 | `desired_goal` | `desired_goal` | 3 | goal position for the cube centre |
-//! | 6..15 | `observation` 0..9 | `joint_positions` | 9 | arm joints 1-7 (rad), finger joints 1-2 (m) |
-//! | 15..24 | `observation` 9..18 | `joint_velocities` | 9 | their velocities |
-//! | 24..27 | `observation` 18..21 | `tcp_position` | 3 | tool centre point (between the fingertips) |
-//! | 27..30 | `observation` 21..24 | `tcp_velocity` | 3 | its linear velocity |
-//! | 30 | `observation` 24 | `gripper_width` | 1 | opening between the finger pads (m) |
-//! | 31..34 | `observation` 25..28 | `cube_position` | 3 | cube centre (same as `achieved_goal`) |
-//! | 34..38 | `observation` 28..32 | `cube_orientation` | 4 | unit quaternion x, y, z, w with w >= 0 |
-//! | 38..41 | `observation` 32..35 | `cube_linear_velocity` | 3 | cube centre velocity |
-//! | 41..44 | `observation` 35..38 | `cube_angular_velocity` | 3 | cube angular velocity |
-//! | 44..47 | `observation` 38..41 | `cube_relative_position` | 3 | cube centre minus TCP position |
+//! An observation is one flat `f32` vector `[achieved_goal, desired_goal, observation]`, the
+//! order in which Gymnasium's `spaces.flatten` lays out the goal dict (keys sorted), so
+//! flattening the dict gives exactly the flat layout. `observation` holds the robot's slots
+//! ([`ROBOT_SLOTS`], the same for every task) followed by the task's own
+//! ([`crate::task::Task::observation_slots`]). All positions and velocities are in the world
+//! frame (m, m/s, rad, rad/s). The pick-and-place table, with indices, is in
+//! [`crate::task::pick_and_place`].
 
 use std::ops::Range;
 
-/// Size of each goal vector (a position).
-pub const GOAL_DIM: usize = 3;
-
-/// One named slot of the flat observation.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Slot {
-    /// The slot's name, as in the layout table.
-    pub name: &'static str,
-    /// Indices in the flat vector.
-    pub range: Range<usize>,
-}
-
-/// Where everything sits in the flat observation of a robot with `num_joints` moving joints.
+/// One named slot of the observation, as a task or the robot declares it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ObservationLayout {
-    num_joints: usize,
+pub struct SlotSpec {
+    /// The slot's name.
+    pub name: &'static str,
+    /// Number of entries; `None`: one per moving joint of the robot.
+    pub size: Option<usize>,
+    /// What it holds, with units.
+    pub description: &'static str,
 }
 
-/// Sizes of the slots of `observation`, in order; `0` stands for "one per moving joint".
-const OBSERVATION_SLOTS: [(&str, usize); 10] = [
-    ("joint_positions", 0),
-    ("joint_velocities", 0),
-    ("tcp_position", 3),
-    ("tcp_velocity", 3),
-    ("gripper_width", 1),
-    ("cube_position", 3),
-    ("cube_orientation", 4),
-    ("cube_linear_velocity", 3),
-    ("cube_angular_velocity", 3),
-    ("cube_relative_position", 3),
+/// The robot's slots at the start of `observation`, the same for every task. Indices into
+/// this table name them in [`ObservationLayout::robot_slot`].
+pub const ROBOT_SLOTS: [SlotSpec; 5] = [
+    SlotSpec {
+        name: "joint_positions",
+        size: None,
+        description: "moving joints (rad; m for the fingers): arm joints 1-7, finger joints 1-2",
+    },
+    SlotSpec {
+        name: "joint_velocities",
+        size: None,
+        description: "their velocities",
+    },
+    SlotSpec {
+        name: "tcp_position",
+        size: Some(3),
+        description: "tool centre point (between the fingertips)",
+    },
+    SlotSpec {
+        name: "tcp_velocity",
+        size: Some(3),
+        description: "its linear velocity",
+    },
+    SlotSpec {
+        name: "gripper_width",
+        size: Some(1),
+        description: "opening between the finger pads (m)",
+    },
 ];
 
+/// Index of `joint_positions` in [`ROBOT_SLOTS`].
+pub const JOINT_POSITIONS: usize = 0;
+/// Index of `joint_velocities` in [`ROBOT_SLOTS`].
+pub const JOINT_VELOCITIES: usize = 1;
+/// Index of `tcp_position` in [`ROBOT_SLOTS`].
+pub const TCP_POSITION: usize = 2;
+/// Index of `tcp_velocity` in [`ROBOT_SLOTS`].
+pub const TCP_VELOCITY: usize = 3;
+/// Index of `gripper_width` in [`ROBOT_SLOTS`].
+pub const GRIPPER_WIDTH: usize = 4;
+
+/// The goal dict's keys, in flat order.
+pub const DICT_KEYS: [&str; 3] = ["achieved_goal", "desired_goal", "observation"];
+
+/// One slot with its place in the flat vector.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Slot {
+    /// The slot's name (`achieved_goal`, `desired_goal`, or a name from [`ROBOT_SLOTS`] or the
+    /// task's slots).
+    pub name: &'static str,
+    /// The goal-dict entry it belongs to (one of [`DICT_KEYS`]).
+    pub key: &'static str,
+    /// Indices in the flat vector.
+    pub range: Range<usize>,
+    /// What it holds.
+    pub description: &'static str,
+}
+
+/// Where everything sits in the flat observation of one task on one robot.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ObservationLayout {
+    num_joints: usize,
+    goal_dim: usize,
+    /// Goals, then [`ROBOT_SLOTS`], then the task's slots.
+    slots: Vec<Slot>,
+}
+
 impl ObservationLayout {
-    /// The layout for a robot with `num_joints` moving joints (9 for the Panda).
-    pub fn new(num_joints: usize) -> Self {
-        Self { num_joints }
+    /// The layout of the environments `config` builds, without building one.
+    pub fn for_config(config: &crate::task::EnvConfig) -> crate::Result<Self> {
+        config.validate()?;
+        let robot = crate::robot::Robot::new(&config.sim_config()?)?;
+        let task = crate::task::make_task(config);
+        Ok(Self::new(
+            robot.movable_joints().len(),
+            task.goal_dim(),
+            task.goal_descriptions(),
+            task.observation_slots(),
+        ))
+    }
+
+    /// The layout for a robot with `num_joints` moving joints (9 for the Panda) and a task with
+    /// goals of `goal_dim` entries and its own `task_slots`.
+    pub fn new(
+        num_joints: usize,
+        goal_dim: usize,
+        goal_description: [&'static str; 2],
+        task_slots: &[SlotSpec],
+    ) -> Self {
+        let mut slots = vec![
+            Slot {
+                name: DICT_KEYS[0],
+                key: DICT_KEYS[0],
+                range: 0..goal_dim,
+                description: goal_description[0],
+            },
+            Slot {
+                name: DICT_KEYS[1],
+                key: DICT_KEYS[1],
+                range: goal_dim..2 * goal_dim,
+                description: goal_description[1],
+            },
+        ];
+        let mut start = 2 * goal_dim;
+        for spec in ROBOT_SLOTS.iter().chain(task_slots) {
+            let n = spec.size.unwrap_or(num_joints);
+            slots.push(Slot {
+                name: spec.name,
+                key: DICT_KEYS[2],
+                range: start..start + n,
+                description: spec.description,
+            });
+            start += n;
+        }
+        Self {
+            num_joints,
+            goal_dim,
+            slots,
+        }
     }
 
     /// Number of moving joints reported.
@@ -66,99 +148,256 @@ impl ObservationLayout {
         self.num_joints
     }
 
+    /// Length of each goal.
+    pub fn goal_dim(&self) -> usize {
+        self.goal_dim
+    }
+
     /// Length of the `observation` entry of the dict.
     pub fn observation_dim(&self) -> usize {
-        OBSERVATION_SLOTS
-            .iter()
-            .map(|&(_, n)| if n == 0 { self.num_joints } else { n })
-            .sum()
+        self.flat_dim() - 2 * self.goal_dim
     }
 
     /// Length of the flat vector: both goals and the observation.
     pub fn flat_dim(&self) -> usize {
-        2 * GOAL_DIM + self.observation_dim()
+        self.slots.last().map_or(0, |s| s.range.end)
     }
 
     /// `achieved_goal` in the flat vector.
     pub fn achieved_goal(&self) -> Range<usize> {
-        0..GOAL_DIM
+        0..self.goal_dim
     }
 
     /// `desired_goal` in the flat vector.
     pub fn desired_goal(&self) -> Range<usize> {
-        GOAL_DIM..2 * GOAL_DIM
+        self.goal_dim..2 * self.goal_dim
     }
 
     /// `observation` in the flat vector.
     pub fn observation(&self) -> Range<usize> {
-        2 * GOAL_DIM..self.flat_dim()
+        2 * self.goal_dim..self.flat_dim()
+    }
+
+    /// The range of the robot's slot `index` ([`ROBOT_SLOTS`], e.g. [`TCP_POSITION`]).
+    pub fn robot_slot(&self, index: usize) -> Range<usize> {
+        self.slots[2 + index].range.clone()
+    }
+
+    /// The range of the task's slot `index` (its position in the task's
+    /// [`crate::task::Task::observation_slots`]).
+    pub fn task_slot(&self, index: usize) -> Range<usize> {
+        self.slots[2 + ROBOT_SLOTS.len() + index].range.clone()
     }
 
     /// Every slot with its range in the flat vector, in order.
-    pub fn slots(&self) -> Vec<Slot> {
-        let mut slots = vec![
-            Slot {
-                name: "achieved_goal",
-                range: self.achieved_goal(),
-            },
-            Slot {
-                name: "desired_goal",
-                range: self.desired_goal(),
-            },
-        ];
-        let mut start = 2 * GOAL_DIM;
-        for &(name, n) in &OBSERVATION_SLOTS {
-            let n = if n == 0 { self.num_joints } else { n };
-            slots.push(Slot {
-                name,
-                range: start..start + n,
-            });
-            start += n;
-        }
-        slots
+    pub fn slots(&self) -> &[Slot] {
+        &self.slots
     }
 
     /// The range of the slot called `name` in the flat vector.
     pub fn slot(&self, name: &str) -> Option<Range<usize>> {
-        self.slots()
-            .into_iter()
+        self.slots
+            .iter()
             .find(|s| s.name == name)
-            .map(|s| s.range)
+            .map(|s| s.range.clone())
     }
 }
+
+/// The type of an info entry, as Python sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InfoType {
+    /// A flag (`bool`, numpy `bool`).
+    Bool,
+    /// A number (`float`, numpy `float64`).
+    Float,
+    /// A count (`int`, numpy `int64`).
+    Int,
+}
+
+impl InfoType {
+    /// The numpy dtype name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            InfoType::Bool => "bool",
+            InfoType::Float => "float64",
+            InfoType::Int => "int64",
+        }
+    }
+}
+
+/// One value of the step info.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum InfoValue {
+    /// An [`InfoType::Bool`] entry.
+    Bool(bool),
+    /// An [`InfoType::Float`] entry.
+    Float(f64),
+    /// An [`InfoType::Int`] entry.
+    Int(i64),
+}
+
+/// One entry of the step info.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct InfoField {
+    /// The info dict's key.
+    pub key: &'static str,
+    /// Its type.
+    pub dtype: InfoType,
+    /// What it means.
+    pub description: &'static str,
+}
+
+const fn field(key: &'static str, dtype: InfoType, description: &'static str) -> InfoField {
+    InfoField {
+        key,
+        dtype,
+        description,
+    }
+}
+
+/// Every key of the step info, in the order [`crate::task::StepInfo::values`] gives them.
+pub const INFO_FIELDS: [InfoField; 19] = [
+    field(
+        "is_success",
+        InfoType::Bool,
+        "the task's success predicate holds",
+    ),
+    field(
+        "is_grasped",
+        InfoType::Bool,
+        "both fingers squeeze the object with at least the grasp force",
+    ),
+    field(
+        "is_lifted",
+        InfoType::Bool,
+        "grasped and touching neither the floor nor the platform",
+    ),
+    field(
+        "is_placed",
+        InfoType::Bool,
+        "released, at rest, on the platform and within the threshold",
+    ),
+    field(
+        "physics_unstable",
+        InfoType::Bool,
+        "the physics blew up in this step (the episode is truncated)",
+    ),
+    field(
+        "goal_distance",
+        InfoType::Float,
+        "distance from the achieved to the desired goal (m)",
+    ),
+    field(
+        "reward_reach",
+        InfoType::Float,
+        "weighted dense `reach` term",
+    ),
+    field(
+        "reward_grasp",
+        InfoType::Float,
+        "weighted dense `grasp` term",
+    ),
+    field("reward_lift", InfoType::Float, "weighted dense `lift` term"),
+    field(
+        "reward_carry",
+        InfoType::Float,
+        "weighted dense `carry` term",
+    ),
+    field(
+        "reward_place",
+        InfoType::Float,
+        "weighted dense `place` term",
+    ),
+    field(
+        "reward_release",
+        InfoType::Float,
+        "weighted dense `release` term",
+    ),
+    field(
+        "gripper_opening",
+        InfoType::Float,
+        "gripper opening the last action commanded (0 closed, 1 open)",
+    ),
+    field(
+        "cube_released",
+        InfoType::Bool,
+        "no robot link touches the cube",
+    ),
+    field(
+        "cube_at_rest",
+        InfoType::Bool,
+        "the cube moves slower than the rest thresholds",
+    ),
+    field(
+        "cube_on_platform",
+        InfoType::Bool,
+        "the cube touches the platform",
+    ),
+    field(
+        "ik_position_error",
+        InfoType::Float,
+        "position error (m) the inverse kinematics left (`ee` control)",
+    ),
+    field(
+        "arm_blocked",
+        InfoType::Bool,
+        "the kinematic arm refused part of this step's motion",
+    ),
+    field(
+        "elapsed_steps",
+        InfoType::Int,
+        "steps taken in this episode",
+    ),
+];
+
+/// The goal-free inputs of the dense reward that `compute_reward` reads back from infos, in
+/// the order it takes them: [`crate::task::RewardContext`]'s floats, then its flags.
+pub const REWARD_CONTEXT_KEYS: [&str; 7] = [
+    "reward_reach",
+    "reward_grasp",
+    "reward_lift",
+    "gripper_opening",
+    "cube_released",
+    "cube_at_rest",
+    "cube_on_platform",
+];
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn panda_layout_matches_the_documented_table() {
-        let layout = ObservationLayout::new(9);
-        assert_eq!(layout.observation_dim(), 41);
-        assert_eq!(layout.flat_dim(), 47);
-        let slots = layout.slots();
+    fn slots_are_contiguous_and_cover_the_flat_vector() {
+        let task = [SlotSpec {
+            name: "extra",
+            size: Some(2),
+            description: "",
+        }];
+        let layout = ObservationLayout::new(9, 3, ["", ""], &task);
         let mut next = 0;
-        for slot in &slots {
+        for slot in layout.slots() {
             assert_eq!(slot.range.start, next, "{} is not contiguous", slot.name);
             next = slot.range.end;
         }
         assert_eq!(next, layout.flat_dim());
-        // Each slot appears in the module's table with its flat range.
-        let source = include_str!("observation.rs");
-        for slot in &slots {
-            let range = if slot.range.len() == 1 {
-                format!("| {} |", slot.range.start)
-            } else {
-                format!("| {}..{} |", slot.range.start, slot.range.end)
-            };
-            let row = source
-                .lines()
-                .find(|l| l.contains(&format!("`{}` | {} |", slot.name, slot.range.len())))
-                .unwrap_or_else(|| panic!("no table row for {}", slot.name));
+        assert_eq!(layout.observation_dim(), 9 + 9 + 3 + 3 + 1 + 2);
+        assert_eq!(layout.task_slot(0), layout.slot("extra").unwrap());
+        assert_eq!(
+            layout.robot_slot(TCP_POSITION),
+            layout.slot("tcp_position").unwrap()
+        );
+    }
+
+    #[test]
+    fn info_keys_are_unique_and_hold_the_reward_context() {
+        for key in REWARD_CONTEXT_KEYS {
+            assert!(INFO_FIELDS.iter().any(|f| f.key == key), "{key}");
+        }
+        for (i, f) in INFO_FIELDS.iter().enumerate() {
             assert!(
-                row.contains(&range),
-                "{}: row {row:?} lacks {range}",
-                slot.name
+                INFO_FIELDS[..i].iter().all(|g| g.key != f.key),
+                "{} twice",
+                f.key
             );
         }
     }

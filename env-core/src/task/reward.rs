@@ -36,7 +36,9 @@ use serde::{Deserialize, Serialize};
 use crate::config::non_negative;
 use crate::error::{Error, Result};
 use crate::task::config::RewardType;
-use crate::task::observation::GOAL_DIM;
+
+/// Size of each goal this reward compares: a position.
+pub const GOAL_DIM: usize = 3;
 
 /// Weights of the dense reward's terms (see the module table); each finite and `>= 0`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

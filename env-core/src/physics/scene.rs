@@ -1,0 +1,208 @@
+//! What a world holds besides the robot and the floor: the platform and the movable objects a
+//! task asks for, reached through named handles.
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use rapier3d::geometry::SharedShape;
+use rapier3d::math::Vector;
+
+use super::convert::pose_from_na;
+use super::{BodyState, SceneObject, Simulation};
+use crate::config::{non_negative, positive, SimConfig};
+use crate::error::{ensure_all_finite, Error, Result};
+
+/// The platform and movable objects of a world.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// Whether the platform (`SimConfig::platform`) stands in the world.
+    pub platform: bool,
+    /// The movable objects; an object's [`ObjectId`] is its position here.
+    pub objects: Vec<ObjectSpec>,
+}
+
+/// One movable object: a cube.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjectSpec {
+    /// Unique name ([`Simulation::object`] looks it up).
+    pub name: String,
+    /// Edge length (m).
+    pub size: f64,
+    /// Mass (kg).
+    pub mass: f64,
+    /// Friction coefficient.
+    pub friction: f64,
+    /// Where its centre starts (m, world frame); tasks place it at every reset.
+    pub position: [f64; 3],
+}
+
+impl ObjectSpec {
+    /// A cube named `name` with the size, mass and friction of `config.cube`, at `position`.
+    pub fn cube(name: &str, config: &SimConfig, position: [f64; 3]) -> Self {
+        Self {
+            name: name.into(),
+            size: config.cube.size,
+            mass: config.cube.mass,
+            friction: config.cube.friction,
+            position,
+        }
+    }
+}
+
+impl Scene {
+    /// The classic tutorial's scene: the platform and one cube named `"cube"` as `config.cube`
+    /// describes it.
+    pub fn tutorial(config: &SimConfig) -> Self {
+        Self {
+            platform: true,
+            objects: vec![ObjectSpec::cube("cube", config, config.cube.position)],
+        }
+    }
+
+    /// Checks every object (finite values, positive sizes and masses, unique names).
+    pub fn validate(&self) -> Result<()> {
+        for (i, object) in self.objects.iter().enumerate() {
+            let field = |what: &str| format!("scene.objects[{i}].{what}");
+            positive(&field("size"), object.size)?;
+            positive(&field("mass"), object.mass)?;
+            non_negative(&field("friction"), object.friction)?;
+            ensure_all_finite(&field("position"), &object.position)?;
+            if self.objects[..i].iter().any(|o| o.name == object.name) {
+                return Err(Error::InvalidConfig {
+                    field: field("name"),
+                    reason: format!("`{}` is used twice", object.name),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A movable object of a [`Simulation`], from [`Simulation::object`] or
+/// [`Simulation::object_ids`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ObjectId(pub(super) usize);
+
+impl ObjectId {
+    /// The first object of a scene (before a task has looked its objects up by name).
+    pub(crate) fn first() -> Self {
+        Self(0)
+    }
+
+    /// The object's position in [`Scene::objects`].
+    pub fn index(self) -> usize {
+        self.0
+    }
+}
+
+impl Simulation {
+    /// The object named `name`.
+    pub fn object(&self, name: &str) -> Result<ObjectId> {
+        self.scene
+            .objects
+            .iter()
+            .position(|o| o.name == name)
+            .map(ObjectId)
+            .ok_or_else(|| Error::UnknownLink {
+                name: name.into(),
+                known: self
+                    .scene
+                    .objects
+                    .iter()
+                    .map(|o| o.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })
+    }
+
+    /// Every object, in [`Scene::objects`] order.
+    pub fn object_ids(&self) -> impl Iterator<Item = ObjectId> {
+        (0..self.objects.len()).map(ObjectId)
+    }
+
+    /// The bodies of `object`; an id from a world with fewer objects is an error.
+    fn scene_object(&self, object: ObjectId) -> Result<&SceneObject> {
+        self.objects
+            .get(object.0)
+            .ok_or_else(|| Error::UnknownLink {
+                name: format!("object #{}", object.0),
+                known: format!("{} objects in this scene", self.objects.len()),
+            })
+    }
+
+    /// Pose and velocity of an object's centre (NaN for an id of another world's object).
+    pub fn object_state(&self, object: ObjectId) -> BodyState {
+        match self.objects.get(object.0) {
+            Some(o) => self.body_state(o.body),
+            None => BodyState::nan(),
+        }
+    }
+
+    /// Teleports an object to `position` / `orientation`, at rest.
+    pub fn set_object_pose(
+        &mut self,
+        object: ObjectId,
+        position: &Vector3<f64>,
+        orientation: &UnitQuaternion<f64>,
+    ) -> Result<()> {
+        ensure_all_finite("object position", position.as_slice())?;
+        ensure_all_finite("object orientation", orientation.coords.as_slice())?;
+        let body = self.scene_object(object)?.body;
+        if let Some(rb) = self.world.bodies.get_mut(body) {
+            let pose = Isometry3::from_parts(Translation3::from(*position), *orientation);
+            rb.set_position(pose_from_na(&pose), true);
+            rb.set_linvel(Vector::ZERO, true);
+            rb.set_angvel(Vector::ZERO, true);
+            rb.reset_forces(true);
+        }
+        Ok(())
+    }
+
+    /// Changes an object's edge length, mass and friction (domain randomisation); its pose and
+    /// velocity are kept.
+    pub fn set_object_properties(
+        &mut self,
+        object: ObjectId,
+        size: f64,
+        mass: f64,
+        friction: f64,
+    ) -> Result<()> {
+        for (field, value) in [("object size", size), ("object mass", mass)] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(Error::InvalidConfig {
+                    field: field.into(),
+                    reason: format!("must be finite and > 0, got {value}"),
+                });
+            }
+        }
+        if !(friction.is_finite() && friction >= 0.0) {
+            return Err(Error::InvalidConfig {
+                field: "object friction".into(),
+                reason: format!("must be finite and >= 0, got {friction}"),
+            });
+        }
+        let collider = self.scene_object(object)?.collider;
+        if let Some(collider) = self.world.colliders.get_mut(collider) {
+            let half = (size / 2.0) as f32;
+            collider.set_shape(SharedShape::cuboid(half, half, half));
+            collider.set_mass(mass as f32);
+            collider.set_friction(friction as f32);
+        }
+        Ok(())
+    }
+
+    /// Edge length (m), mass (kg) and friction of an object as simulated now (NaN for an id of
+    /// another world's object).
+    pub fn object_properties(&self, object: ObjectId) -> (f64, f64, f64) {
+        let collider = self.objects.get(object.0).map(|o| o.collider);
+        match collider.and_then(|c| self.world.colliders.get(c)) {
+            Some(c) => {
+                let size = c
+                    .shape()
+                    .as_cuboid()
+                    .map(|b| 2.0 * b.half_extents.x as f64)
+                    .unwrap_or(f64::NAN);
+                (size, c.mass() as f64, c.friction() as f64)
+            }
+            None => (f64::NAN, f64::NAN, f64::NAN),
+        }
+    }
+}

@@ -1,0 +1,322 @@
+//! [`PickAndPlace`]: pick the cube up from the floor and put it down on the goal on the
+//! platform (or hold it at a goal in the air).
+//!
+//! # Observation
+//!
+//! For the Panda (9 moving joints: 7 arm joints and 2 fingers) `observation` has 41 entries and
+//! the flat vector 47:
+//!
+//! | flat index | dict key / `observation` index | slot | size | meaning |
+//! |---|---|---|---|---|
+//! | 0..3 | `achieved_goal` | `achieved_goal` | 3 | cube centre position |
+//! | 3..6 | `desired_goal` | `desired_goal` | 3 | goal position for the cube centre |
+//! | 6..15 | `observation` 0..9 | `joint_positions` | 9 | arm joints 1-7 (rad), finger joints 1-2 (m) |
+//! | 15..24 | `observation` 9..18 | `joint_velocities` | 9 | their velocities |
+//! | 24..27 | `observation` 18..21 | `tcp_position` | 3 | tool centre point (between the fingertips) |
+//! | 27..30 | `observation` 21..24 | `tcp_velocity` | 3 | its linear velocity |
+//! | 30 | `observation` 24 | `gripper_width` | 1 | opening between the finger pads (m) |
+//! | 31..34 | `observation` 25..28 | `cube_position` | 3 | cube centre (same as `achieved_goal`) |
+//! | 34..38 | `observation` 28..32 | `cube_orientation` | 4 | unit quaternion x, y, z, w with w >= 0 |
+//! | 38..41 | `observation` 32..35 | `cube_linear_velocity` | 3 | cube centre velocity |
+//! | 41..44 | `observation` 35..38 | `cube_angular_velocity` | 3 | cube angular velocity |
+//! | 44..47 | `observation` 38..41 | `cube_relative_position` | 3 | cube centre minus TCP position |
+//!
+//! The first seven rows are every task's (goals and [`super::observation::ROBOT_SLOTS`]); the
+//! last five are this task's ([`PickAndPlace::observation_slots`](super::Task::observation_slots)).
+//!
+//! # Starting state
+//! The cube on the floor at a uniform position in `pick_region` with a uniform yaw in
+//! `cube_yaw_range`, the goal uniform in `goal_region` at the height of a cube resting on the
+//! platform, or with probability `goal_air_probability` up to `goal_air_height` above it.
+//!
+//! # Rewards
+//! `sparse`: -1 until the cube is within `success_threshold` of the goal, then 0. `dense`: the
+//! staged terms of [`crate::task::reward`].
+
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+
+use super::{EnvConfig, EpisodeStart, ObjectStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use crate::error::Result;
+use crate::physics::{BodyState, ObjectId, ObjectSpec, Scene, Simulation};
+use crate::task::reward::{closeness, RewardContext, RewardFunction};
+
+/// The task's observation slots, after the robot's.
+const SLOTS: [SlotSpec; 5] = [
+    SlotSpec {
+        name: "cube_position",
+        size: Some(3),
+        description: "cube centre (same as achieved_goal)",
+    },
+    SlotSpec {
+        name: "cube_orientation",
+        size: Some(4),
+        description: "unit quaternion x, y, z, w with w >= 0",
+    },
+    SlotSpec {
+        name: "cube_linear_velocity",
+        size: Some(3),
+        description: "cube centre velocity",
+    },
+    SlotSpec {
+        name: "cube_angular_velocity",
+        size: Some(3),
+        description: "cube angular velocity",
+    },
+    SlotSpec {
+        name: "cube_relative_position",
+        size: Some(3),
+        description: "cube centre minus TCP position",
+    },
+];
+const LINEAR_VELOCITY: usize = 2;
+const ANGULAR_VELOCITY: usize = 3;
+const RELATIVE_POSITION: usize = 4;
+
+/// Size of the goal: a position.
+const GOAL_DIM: usize = 3;
+
+/// Pick the cube up from the floor and put it on the goal (see the module documentation).
+#[derive(Debug, Clone)]
+pub struct PickAndPlace {
+    config: EnvConfig,
+    reward: RewardFunction,
+    cube: Option<ObjectId>,
+}
+
+impl PickAndPlace {
+    /// The task as `config` sets it up.
+    pub fn new(config: &EnvConfig) -> Self {
+        Self {
+            config: config.clone(),
+            reward: RewardFunction {
+                reward_type: config.reward_type,
+                success_threshold: config.success_threshold,
+                weights: config.reward_weights,
+            },
+            cube: None,
+        }
+    }
+
+    /// The reward function ([`RewardFunction::compute_batch`] is `compute_reward`).
+    pub fn reward_function(&self) -> &RewardFunction {
+        &self.reward
+    }
+
+    fn cube(&self) -> ObjectId {
+        // `bind` runs before any episode; an unbound task reads object 0, the only object.
+        self.cube.unwrap_or_else(ObjectId::first)
+    }
+}
+
+impl Task for PickAndPlace {
+    fn name(&self) -> &'static str {
+        "pick_and_place"
+    }
+
+    fn scene(&self, config: &EnvConfig) -> Scene {
+        let sim = &config.sim;
+        Scene {
+            platform: true,
+            objects: vec![ObjectSpec::cube("cube", sim, sim.cube.position)],
+        }
+    }
+
+    fn bind(&mut self, sim: &Simulation) -> Result<()> {
+        self.cube = Some(sim.object("cube")?);
+        Ok(())
+    }
+
+    fn goal_dim(&self) -> usize {
+        GOAL_DIM
+    }
+
+    fn goal_descriptions(&self) -> [&'static str; 2] {
+        ["cube centre position", "goal position for the cube centre"]
+    }
+
+    fn observation_slots(&self) -> &'static [SlotSpec] {
+        &SLOTS
+    }
+
+    fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart) {
+        let config = &self.config;
+        let mut draw = || rng.random::<f64>();
+        // Always the same draws in the same order: overrides and switched-off randomisation do
+        // not shift the others.
+        let cube_xy = config.pick_region.lerp([draw(), draw()]);
+        let yaw_u = draw();
+        let goal_xy = config.goal_region.lerp([draw(), draw()]);
+        let air_u = draw();
+        let air_height_u = draw();
+        let size_u = draw();
+        let mass_u = draw();
+        let friction_u = draw();
+        let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
+            range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
+        };
+        let r = &config.randomization;
+        let cube = &config.sim.cube;
+        let size = pick(r.cube_size, cube.size, size_u);
+        let mass = pick(r.cube_mass, cube.mass, mass_u);
+        let friction = pick(r.cube_friction, cube.friction, friction_u);
+        let yaw = config.cube_yaw_range[0]
+            + (config.cube_yaw_range[1] - config.cube_yaw_range[0]) * yaw_u;
+        let platform_top = config.sim.platform.top_center[2];
+        let mut goal = Vector3::new(goal_xy[0], goal_xy[1], platform_top + size / 2.0);
+        if air_u < config.goal_air_probability {
+            let [low, high] = config.goal_air_height;
+            goal.z += low + (high - low) * air_height_u;
+        }
+        if let Some(g) = options.goal {
+            goal = Vector3::from(g);
+        }
+        let position = options.cube_position.map_or(
+            Vector3::new(cube_xy[0], cube_xy[1], size / 2.0),
+            Vector3::from,
+        );
+        let randomised =
+            r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some();
+        let object = ObjectStart {
+            object: self.cube(),
+            position,
+            orientation: UnitQuaternion::from_axis_angle(
+                &Vector3::z_axis(),
+                options.cube_yaw.unwrap_or(yaw),
+            ),
+            properties: randomised.then_some((size, mass, friction)),
+        };
+        match start.objects.first_mut() {
+            Some(first) => *first = object,
+            None => start.objects.push(object),
+        }
+        start.objects.truncate(1);
+        start.goal.clear();
+        start.goal.extend_from_slice(goal.as_slice());
+    }
+
+    fn observe(
+        &self,
+        sim: &Simulation,
+        tcp: &BodyState,
+        _goal: &[f64],
+        achieved: &mut [f64],
+        extras: &mut [f64],
+    ) {
+        let cube = sim.object_state(self.cube());
+        let mut orientation = cube.orientation.coords;
+        if orientation.w < 0.0 {
+            orientation = -orientation;
+        }
+        let relative = cube.position - tcp.position;
+        achieved.copy_from_slice(cube.position.as_slice());
+        let values: [&[f64]; 5] = [
+            cube.position.as_slice(),
+            &[orientation.x, orientation.y, orientation.z, orientation.w],
+            cube.linear_velocity.as_slice(),
+            cube.angular_velocity.as_slice(),
+            relative.as_slice(),
+        ];
+        for (o, v) in extras.iter_mut().zip(values.iter().flat_map(|s| s.iter())) {
+            *o = *v;
+        }
+    }
+
+    fn evaluate(&self, view: &View<'_>) -> Verdict {
+        let t = &self.config.thresholds;
+        let cube = self.cube();
+        let touch = view.sim.object_touch(cube);
+        let l = view.layout;
+        let obs = view.observation;
+        let cube_speed = norm(&obs[l.task_slot(LINEAR_VELOCITY)]);
+        let cube_spin = norm(&obs[l.task_slot(ANGULAR_VELOCITY)]);
+        let reach_distance = norm(&obs[l.task_slot(RELATIVE_POSITION)]);
+        let cube_z = obs[l.achieved_goal()][2] as f64;
+        let (size, _, _) = view.sim.object_properties(cube);
+        let platform_height = self.config.sim.platform.top_center[2];
+        let is_grasped = touch.finger_forces.iter().all(|&f| f >= t.grasp_force);
+        let lift = if platform_height > 0.0 {
+            ((cube_z - size / 2.0) / platform_height).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let w = &self.config.reward_weights;
+        let context = RewardContext {
+            reach: w.reach as f32 * closeness(reach_distance),
+            grasp: if is_grasped { w.grasp as f32 } else { 0.0 },
+            lift: w.lift as f32 * lift as f32,
+            cube_released: !touch.robot_touching(),
+            cube_at_rest: cube_speed < t.rest_linear_speed && cube_spin < t.rest_angular_speed,
+            cube_on_platform: touch.platform,
+            gripper_opening: view.gripper_opening as f32,
+        };
+        let verdict =
+            self.reward
+                .evaluate(&obs[l.achieved_goal()], &obs[l.desired_goal()], &context);
+        Verdict {
+            is_success: verdict.is_success,
+            is_grasped,
+            is_lifted: is_grasped && !touch.floor && !touch.platform,
+            is_placed: verdict.is_placed,
+            goal_distance: verdict.distance,
+            context,
+            terms: verdict.terms,
+            reward: verdict.reward,
+        }
+    }
+
+    fn compute_rewards(
+        &self,
+        achieved: &[f32],
+        desired: &[f32],
+        contexts: &[RewardContext],
+        out: &mut [f32],
+    ) -> Result<()> {
+        self.reward.compute_batch(achieved, desired, contexts, out)
+    }
+}
+
+fn norm(v: &[f32]) -> f64 {
+    v.iter()
+        .map(|&x| (x as f64) * (x as f64))
+        .sum::<f64>()
+        .sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::task::ObservationLayout;
+
+    #[test]
+    fn panda_layout_matches_the_documented_table() {
+        let task = PickAndPlace::new(&EnvConfig::default());
+        let layout = ObservationLayout::new(
+            9,
+            task.goal_dim(),
+            task.goal_descriptions(),
+            task.observation_slots(),
+        );
+        assert_eq!(layout.observation_dim(), 41);
+        assert_eq!(layout.flat_dim(), 47);
+        // Each slot appears in the module's table with its flat range.
+        let source = include_str!("pick_and_place.rs");
+        for slot in layout.slots() {
+            let range = if slot.range.len() == 1 {
+                format!("| {} |", slot.range.start)
+            } else {
+                format!("| {}..{} |", slot.range.start, slot.range.end)
+            };
+            let row = source
+                .lines()
+                .find(|l| l.contains(&format!("`{}` | {} |", slot.name, slot.range.len())))
+                .unwrap_or_else(|| panic!("no table row for {}", slot.name));
+            assert!(
+                row.contains(&range),
+                "{}: row {row:?} lacks {range}",
+                slot.name
+            );
+        }
+    }
+}
