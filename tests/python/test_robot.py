@@ -69,5 +69,5 @@ def test_teleport_and_controls_move_the_robot(env: PickAndPlaceEnv) -> None:
     env.robot.torque_control("panda_joint7", 5.0)
     env.robot.step_simulation(20)
     assert env.robot.joint_positions()[6] > before + 0.01
-    cube = env.robot.cube_state()
+    cube = env.robot.object_state("cube")
     assert len(cube["position"]) == 3 and len(cube["orientation"]) == 4

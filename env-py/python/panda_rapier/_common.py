@@ -1,29 +1,90 @@
-"""Helpers shared by the single, vector and stable-baselines3 environments: configuration
-serialisation, action checking, seeds, spaces, observation splitting and reward contexts."""
+"""Helpers shared by the single, vector and stable-baselines3 environments: the observation
+and info schema, configuration serialisation, action checking, seeds, spaces, observation
+splitting and reward contexts."""
 
 from __future__ import annotations
 
+import functools
 import json
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
+from . import _native
 from .errors import ConfigError, InvalidActionError, InvalidArgumentError, ResetNeededError
 
-#: Info keys that carry the goal-free inputs of the dense reward, in the order the native
-#: ``compute_reward`` takes them.
-CONTEXT_FLOAT_KEYS = ("reward_reach", "reward_grasp", "reward_lift", "gripper_opening")
-CONTEXT_FLAG_KEYS = ("cube_released", "cube_at_rest", "cube_on_platform")
-
-#: Slices of the flat native observation (Gymnasium's ``spaces.flatten`` order of the dict).
-GOAL_DIM = 3
-ACHIEVED = slice(0, GOAL_DIM)
-DESIRED = slice(GOAL_DIM, 2 * GOAL_DIM)
-OBSERVATION = slice(2 * GOAL_DIM, None)
-
 _MAX_SEED = 2**64
+
+#: The goal dict's keys, in the order of the flat native observation (Gymnasium's
+#: ``spaces.flatten`` order of the dict: keys sorted).
+DICT_KEYS = ("achieved_goal", "desired_goal", "observation")
+
+
+@dataclass(frozen=True)
+class Schema:
+    """The observation and info schema of one configuration, as the native core defines it
+    (``_native.schema``): every layer reads it from here instead of hard-coding a layout."""
+
+    task: str
+    goal_dim: int
+    flat_dim: int
+    action_dim: int
+    #: Every slot of the flat observation: ``name``, ``key`` (the dict entry it belongs to),
+    #: ``start``, ``stop``, ``description``.
+    slots: tuple[dict[str, Any], ...]
+    #: ``(key, numpy dtype)`` of every info entry.
+    info: tuple[tuple[str, str], ...]
+    #: Float and flag info keys ``compute_reward`` reads, in the order the native side takes
+    #: them.
+    context_float_keys: tuple[str, ...]
+    context_flag_keys: tuple[str, ...]
+
+    @staticmethod
+    @functools.lru_cache(maxsize=64)
+    def of(config_json: str) -> Schema:
+        """The schema of the environments ``config_json`` builds (cached)."""
+        raw = _native.schema(config_json)
+        dtypes = {entry["key"]: entry["dtype"] for entry in raw["info"]}
+        context = tuple(raw["reward_context_keys"])
+        return Schema(
+            task=str(raw["task"]),
+            goal_dim=int(raw["goal_dim"]),
+            flat_dim=int(raw["flat_dim"]),
+            action_dim=int(raw["action_dim"]),
+            slots=tuple(dict(slot) for slot in raw["observation"]),
+            info=tuple(dtypes.items()),
+            context_float_keys=tuple(k for k in context if dtypes[k] != "bool"),
+            context_flag_keys=tuple(k for k in context if dtypes[k] == "bool"),
+        )
+
+    @staticmethod
+    def default() -> Schema:
+        """The schema of the default configuration."""
+        return Schema.of("{}")
+
+    def part(self, key: str) -> slice:
+        """Where the goal-dict entry ``key`` sits in the flat vector."""
+        starts = [s["start"] for s in self.slots if s["key"] == key]
+        stops = [s["stop"] for s in self.slots if s["key"] == key]
+        return slice(min(starts), max(stops))
+
+    @property
+    def observation_dim(self) -> int:
+        """Length of the dict's ``observation`` entry."""
+        return self.flat_dim - 2 * self.goal_dim
+
+    def slot(self, name: str) -> slice:
+        """Where the slot ``name`` (``tcp_position``, ``cube_position``, ...) sits in the flat
+        vector."""
+        for s in self.slots:
+            if s["name"] == name:
+                return slice(s["start"], s["stop"])
+        raise InvalidArgumentError(
+            f"no observation slot {name!r}; slots: {[s['name'] for s in self.slots]}"
+        )
 
 
 def _non_finite(value: Any, path: str) -> str | None:
@@ -109,18 +170,14 @@ def as_actions(action: Any, shape: tuple[int, ...], what: str = "action") -> np.
 OBSERVATION_BOUND = 1000.0
 
 
-def observation_space(observation_dim: int) -> spaces.Dict:
+def observation_space(schema: Schema) -> spaces.Dict:
     """The goal-conditioned dict space (keys sorted as Gymnasium sorts them)."""
 
     def box(n: int) -> spaces.Box:
         return spaces.Box(-OBSERVATION_BOUND, OBSERVATION_BOUND, shape=(n,), dtype=np.float32)
 
     return spaces.Dict(
-        {
-            "achieved_goal": box(GOAL_DIM),
-            "desired_goal": box(GOAL_DIM),
-            "observation": box(observation_dim - 2 * GOAL_DIM),
-        }
+        {key: box(schema.part(key).stop - schema.part(key).start) for key in DICT_KEYS}
     )
 
 
@@ -129,32 +186,31 @@ def action_space(action_dim: int) -> spaces.Box:
     return spaces.Box(-1.0, 1.0, shape=(action_dim,), dtype=np.float32)
 
 
-def split_observation(flat: np.ndarray) -> dict[str, np.ndarray]:
-    """The dict observation from a flat one (``(d,)`` or ``(n, d)``), as contiguous arrays."""
-    return {
-        "achieved_goal": np.ascontiguousarray(flat[..., ACHIEVED]),
-        "desired_goal": np.ascontiguousarray(flat[..., DESIRED]),
-        "observation": np.ascontiguousarray(flat[..., OBSERVATION]),
-    }
+def split_observation(flat: np.ndarray, schema: Schema | None = None) -> dict[str, np.ndarray]:
+    """The dict observation from a flat one (``(d,)`` or ``(n, d)``), as contiguous arrays,
+    laid out as ``schema`` says (the default configuration's when not given)."""
+    schema = schema or Schema.default()
+    return {key: np.ascontiguousarray(flat[..., schema.part(key)]) for key in DICT_KEYS}
 
 
 def compute_reward(
-    native: Any, achieved_goal: Any, desired_goal: Any, info: Any, dense: bool
+    native: Any, schema: Schema, achieved_goal: Any, desired_goal: Any, info: Any, dense: bool
 ) -> Any:
     """Batched reward over any leading shape; a float for a single transition."""
     achieved = np.asarray(achieved_goal, dtype=np.float32)
     desired = np.asarray(desired_goal, dtype=np.float32)
-    if achieved.shape != desired.shape or achieved.ndim == 0 or achieved.shape[-1] != GOAL_DIM:
+    goal_dim = schema.goal_dim
+    if achieved.shape != desired.shape or achieved.ndim == 0 or achieved.shape[-1] != goal_dim:
         raise InvalidArgumentError(
-            "achieved_goal and desired_goal must have the same shape (..., 3), got "
+            f"achieved_goal and desired_goal must have the same shape (..., {goal_dim}), got "
             f"{achieved.shape} and {desired.shape}"
         )
     lead = achieved.shape[:-1]
     n = int(np.prod(lead, dtype=np.int64))
-    context = context_columns(info, n) if dense else None
+    context = context_columns(info, n, schema) if dense else None
     rewards = native.compute_reward(
-        np.ascontiguousarray(achieved.reshape(n, GOAL_DIM)),
-        np.ascontiguousarray(desired.reshape(n, GOAL_DIM)),
+        np.ascontiguousarray(achieved.reshape(n, goal_dim)),
+        np.ascontiguousarray(desired.reshape(n, goal_dim)),
         context,
     )
     if not lead:
@@ -162,11 +218,13 @@ def compute_reward(
     return rewards.reshape(lead)
 
 
-def context_columns(info: Any, n: int) -> tuple[np.ndarray, ...]:
+def context_columns(info: Any, n: int, schema: Schema) -> tuple[np.ndarray, ...]:
     """The dense reward's goal-free inputs for ``n`` transitions, from an info dict (scalars or
     arrays), or a sequence / object array of info dicts (what ``HerReplayBuffer`` passes)."""
-    keys = CONTEXT_FLOAT_KEYS + CONTEXT_FLAG_KEYS
-    dtypes = [np.float32] * len(CONTEXT_FLOAT_KEYS) + [np.bool_] * len(CONTEXT_FLAG_KEYS)
+    keys = schema.context_float_keys + schema.context_flag_keys
+    dtypes = [np.float32] * len(schema.context_float_keys) + [np.bool_] * len(
+        schema.context_flag_keys
+    )
     try:
         if isinstance(info, Mapping):
             columns = [
@@ -208,11 +266,14 @@ class NativeBacked:
     _native: Any
     _config: dict[str, Any]
     _dense: bool
+    _schema: Schema
 
     def _bind_native(self, native: Any) -> None:
         self._native = native
-        self._config = json.loads(native.config_json())
+        config_json = native.config_json()
+        self._config = json.loads(config_json)
         self._dense = self._config["reward_type"] == "dense"
+        self._schema = Schema.of(config_json)
 
     @property
     def dt(self) -> float:
@@ -231,7 +292,14 @@ class NativeBacked:
         ``info`` is a step's info dict, a dict of arrays, or a sequence / array of info dicts
         (what ``HerReplayBuffer`` passes); the sparse reward does not read it.
         """
-        return compute_reward(self._native, achieved_goal, desired_goal, info, self._dense)
+        return compute_reward(
+            self._native, self._schema, achieved_goal, desired_goal, info, self._dense
+        )
+
+    @property
+    def schema(self) -> Schema:
+        """The observation and info schema (slots with their flat ranges, info keys)."""
+        return self._schema
 
 
 class Closed:

@@ -116,7 +116,7 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
         # gym.make keeps time with a TimeLimit wrapper; the env counts only when asked to.
         config.setdefault("max_episode_steps", None)
         self._bind_native(NativeEnv(_common.config_json(config), 0))
-        self.observation_space = _common.observation_space(self._native.observation_dim)
+        self.observation_space = _common.observation_space(self._schema)
         self.action_space = _common.action_space(self._native.action_dim)
         self._action_shape = (int(self._native.action_dim),)
         self.metadata = {**type(self).metadata, "render_fps": round(1.0 / self._native.dt)}
@@ -144,7 +144,7 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
         flat, info = self._native.reset(native_seed, options_json)
         if self.render_mode == "human":
             self.render()
-        return _common.split_observation(flat), info
+        return _common.split_observation(flat, self._schema), info
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         flat, reward, terminated, truncated, info = self._native.step(
@@ -152,7 +152,7 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
         )
         if self.render_mode == "human":
             self.render()
-        return _common.split_observation(flat), reward, terminated, truncated, info
+        return _common.split_observation(flat, self._schema), reward, terminated, truncated, info
 
     def save_state(self) -> Any:
         """An opaque copy of the whole state (physics, random stream, goal, clock)."""

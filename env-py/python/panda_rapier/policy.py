@@ -17,6 +17,7 @@ closed-loop controller with stable-baselines3's ``predict`` interface.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping
 from typing import Any
 
@@ -30,8 +31,16 @@ from .registration import env_config
 
 __all__ = ["ScriptedPolicy"]
 
-_OBSERVATION_KEYS = ("achieved_goal", "desired_goal", "observation")
-_CONTROL_BY_ACTION_DIM = {4: "ee", 8: "joints"}
+_OBSERVATION_KEYS = _common.DICT_KEYS
+
+
+def _control_by_action_dim() -> dict[int, str]:
+    """The control mode each action length belongs to (4: ``ee``, 8: ``joints`` for the
+    Panda), from the native schema."""
+    return {
+        _common.Schema.of(json.dumps({"control_mode": mode})).action_dim: mode
+        for mode in ("ee", "joints")
+    }
 
 
 def _config_of(source: Any) -> dict[str, Any]:
@@ -45,7 +54,7 @@ def _config_of(source: Any) -> dict[str, Any]:
     if isinstance(source, Mapping):
         return dict(source)
     if isinstance(source, spaces.Box):
-        control = _CONTROL_BY_ACTION_DIM.get(int(np.prod(source.shape)))
+        control = _control_by_action_dim().get(int(np.prod(source.shape)))
         if control is None or len(source.shape) != 1:
             raise InvalidArgumentError(
                 f"an action space of shape (4,) (ee control) or (8,) (joints control) is "
@@ -99,7 +108,8 @@ class ScriptedPolicy:
         self._native = NativeScriptedPolicy(_common.config_json(options))
         self.config: dict[str, Any] = options
         self.action_space = _common.action_space(self._native.action_dim)
-        self.observation_space = _common.observation_space(self._native.observation_dim)
+        self.schema = _common.Schema.of(_common.config_json(options))
+        self.observation_space = _common.observation_space(self.schema)
 
     def _flat(self, observation: Any) -> tuple[np.ndarray, bool]:
         """Flat float32 rows ``(n, observation_dim)`` and whether the input was one

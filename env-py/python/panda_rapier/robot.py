@@ -130,9 +130,10 @@ class Robot:
         start = None if q_start is None else _floats(q_start, "q_start")
         return dict(self._native.inverse_kinematics(target, quaternion, start, int(max_iterations)))
 
-    def cube_state(self) -> dict[str, Any]:
-        """The cube's world ``position``, ``orientation`` (xyzw) and velocities."""
-        return dict(self._native.cube_state())
+    def object_state(self, name: str = "cube") -> dict[str, Any]:
+        """World ``position``, ``orientation`` (xyzw) and velocities of the scene's object
+        ``name`` (pick-and-place has one, ``"cube"``)."""
+        return dict(self._native.object_state(str(name)))
 
 
 def _floats(values: Any, what: str) -> list[float]:

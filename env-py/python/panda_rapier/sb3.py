@@ -111,7 +111,7 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
         self._sub_envs = [_SubEnv(self, render_mode) for _ in range(int(num_envs))]
         super().__init__(
             int(num_envs),
-            _common.observation_space(self._native.observation_dim),
+            _common.observation_space(self._schema),
             _common.action_space(self._native.action_dim),
         )
         self._actions: np.ndarray | None = None
@@ -136,7 +136,7 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
         self.reset_infos = self._native.info_rows("step")
         self._episode_returns[:] = 0.0
         self._episode_lengths[:] = 0
-        return _common.split_observation(flat)
+        return _common.split_observation(flat, self._schema)
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = _common.as_actions(actions, self._actions_shape, "actions")
@@ -153,7 +153,7 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
         self._episode_returns += rewards
         self._episode_lengths += 1
         if dones.any():
-            finals = _common.split_observation(self._native.final_observations())
+            finals = _common.split_observation(self._native.final_observations(), self._schema)
             reset_infos = self._native.info_rows("reset")
             elapsed = round(time.time() - self._start_time, 6)
             for i in np.flatnonzero(dones):
@@ -168,7 +168,7 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
                 self.reset_infos[i] = reset_infos[i]
             self._episode_returns[dones] = 0.0
             self._episode_lengths[dones] = 0
-        return _common.split_observation(flat), rewards, dones, infos
+        return _common.split_observation(flat, self._schema), rewards, dones, infos
 
     def close(self) -> None:
         if self._frames is not None:

@@ -102,7 +102,7 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
             "render_modes": list(RENDER_MODES),
             "render_fps": round(1.0 / self._native.dt),
         }
-        self.single_observation_space = _common.observation_space(self._native.observation_dim)
+        self.single_observation_space = _common.observation_space(self._schema)
         self.single_action_space = _common.action_space(self._native.action_dim)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -152,7 +152,7 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
                 )
             mask = np.ascontiguousarray(mask)
         flat = self._native.reset(seeds, mask)
-        return _common.split_observation(flat), self._with_masks(self._native.infos("step"))
+        return _common.split_observation(flat, self._schema), self._with_masks(self._native.infos("step"))
 
     def step(
         self, actions: Any
@@ -166,7 +166,7 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
             if ended.any():
                 infos = self._same_step_infos(infos, ended)
         return (
-            _common.split_observation(flat),
+            _common.split_observation(flat, self._schema),
             rewards,
             terminated,
             truncated,
@@ -183,7 +183,7 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
             key: np.where(ended, reset_infos[key], column) for key, column in step_infos.items()
         }
         final_obs = np.full(self.num_envs, None, dtype=object)
-        finals = _common.split_observation(self._native.final_observations())
+        finals = _common.split_observation(self._native.final_observations(), self._schema)
         for i in np.flatnonzero(ended):
             final_obs[i] = {key: value[i] for key, value in finals.items()}
         final_info: dict[str, Any] = {}
