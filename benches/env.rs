@@ -11,7 +11,7 @@ use panda_rapier::policies::ScriptedPolicy;
 use panda_rapier::task::{
     ControlMode, EnvConfig, PandaEnv, ResetOptions, RewardContext, RewardType,
 };
-use panda_rapier::vector::{AutoresetMode, VecEnv};
+use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -68,7 +68,7 @@ fn vector_step(c: &mut Criterion) {
     group.measurement_time(Duration::from_secs(6));
     for &n in &[1usize, 16, 64, 256] {
         for &threads in &[1usize, 2] {
-            let mut env = VecEnv::new(
+            let mut env = PandaVecEnv::new(
                 EnvConfig::default(),
                 n,
                 Some(threads),
@@ -131,7 +131,8 @@ fn scripted_policy(c: &mut Criterion) {
         };
         // Observations from the middle of real episodes, so every phase's code runs.
         let n = 256;
-        let mut env = VecEnv::new(config.clone(), n, Some(1), AutoresetMode::SameStep).unwrap();
+        let mut env =
+            PandaVecEnv::new(config.clone(), n, Some(1), AutoresetMode::SameStep).unwrap();
         env.reset(Some(0)).unwrap();
         let mut policy = ScriptedPolicy::new(&config).unwrap();
         let mut actions = vec![0.0; n * policy.action_dim()];

@@ -17,8 +17,8 @@
 use std::time::Instant;
 
 use panda_rapier::task::{ControlMode, EnvConfig, TaskThresholds};
-use panda_rapier::vector::{AutoresetMode, VecEnv};
-use panda_rapier::{ArmModel, JointControl, SimConfig, Simulation};
+use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
+use panda_rapier::{ArmFidelity, JointControl, SimConfig, Simulation};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
@@ -36,7 +36,7 @@ struct Tally {
 fn env_scenario(
     name: &str,
     mode: ControlMode,
-    arm: ArmModel,
+    arm: ArmFidelity,
     steps: u64,
 ) -> panda_rapier::Result<Tally> {
     let n = 64;
@@ -45,7 +45,7 @@ fn env_scenario(
         arm,
         ..EnvConfig::default()
     };
-    let mut env = VecEnv::new(config, n, None, AutoresetMode::SameStep)?;
+    let mut env = PandaVecEnv::new(config, n, None, AutoresetMode::SameStep)?;
     env.reset(Some(1))?;
     let a = env.action_dim();
     let mut rng = ChaCha8Rng::seed_from_u64(2);
@@ -174,11 +174,19 @@ fn main() -> panda_rapier::Result<()> {
         "{:<18} {:<10} {:>9} {:>8} {:>5} {:>9} {:>7} {:>9} {:>7}",
         "scenario", "arm", "steps", "episodes", "NaN", "blow-ups", "resets", "fastest", "s"
     );
-    let runs: [(&str, ControlMode, ArmModel); 4] = [
-        ("joints_bang_bang", ControlMode::Joints, ArmModel::Dynamic),
-        ("ee_into_table", ControlMode::Ee, ArmModel::Dynamic),
-        ("joints_bang_bang", ControlMode::Joints, ArmModel::Kinematic),
-        ("ee_into_table", ControlMode::Ee, ArmModel::Kinematic),
+    let runs: [(&str, ControlMode, ArmFidelity); 4] = [
+        (
+            "joints_bang_bang",
+            ControlMode::Joints,
+            ArmFidelity::Dynamic,
+        ),
+        ("ee_into_table", ControlMode::Ee, ArmFidelity::Dynamic),
+        (
+            "joints_bang_bang",
+            ControlMode::Joints,
+            ArmFidelity::Kinematic,
+        ),
+        ("ee_into_table", ControlMode::Ee, ArmFidelity::Kinematic),
     ];
     let mut all = Tally::default();
     let mut report = |name: &str, arm: &str, t: &Tally, seconds: f64| {

@@ -14,14 +14,14 @@ use std::time::Instant;
 use panda_rapier::demo::{self, TutorialSequence};
 use panda_rapier::policies::evaluate;
 use panda_rapier::task::{ControlMode, EnvConfig};
-use panda_rapier::vector::{AutoresetMode, VecEnv};
-use panda_rapier::{ArmModel, MultibodyUpdate, SimConfig, Simulation};
+use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
+use panda_rapier::{ArmFidelity, MultibodyUpdate, SimConfig, Simulation};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn env_steps_per_second(config: &EnvConfig) -> panda_rapier::Result<f64> {
     let n = 16;
-    let mut env = VecEnv::new(config.clone(), n, Some(1), AutoresetMode::SameStep)?;
+    let mut env = PandaVecEnv::new(config.clone(), n, Some(1), AutoresetMode::SameStep)?;
     env.reset(Some(0))?;
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let steps = 60;
@@ -86,11 +86,11 @@ fn main() -> panda_rapier::Result<()> {
         let [dt, substeps, iterations, ref options @ ..] = parts[..] else {
             panic!("expected dt:substeps:iterations[:kinematic][:substep], got {spec}");
         };
-        let mut arm = ArmModel::Dynamic;
+        let mut arm = ArmFidelity::Dynamic;
         let mut multibody_update = MultibodyUpdate::Step;
         for option in options {
             match *option {
-                "kinematic" => arm = ArmModel::Kinematic,
+                "kinematic" => arm = ArmFidelity::Kinematic,
                 "substep" => multibody_update = MultibodyUpdate::Substep,
                 other => panic!("unknown option {other:?} in {spec}"),
             }

@@ -9,12 +9,12 @@ use std::hash::{Hash, Hasher};
 
 use panda_rapier::policies::ScriptedPolicy;
 use panda_rapier::task::{ControlMode, EnvConfig, ResetOptions, RewardType};
-use panda_rapier::{ArmModel, PandaEnv};
+use panda_rapier::{ArmFidelity, PandaEnv};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    for arm in [ArmModel::Dynamic, ArmModel::Kinematic] {
+    for arm in [ArmFidelity::Dynamic, ArmFidelity::Kinematic] {
         for mode in [ControlMode::Ee, ControlMode::Joints] {
             let mut config = EnvConfig {
                 control_mode: mode,

@@ -7,7 +7,7 @@
 use std::time::Instant;
 
 use panda_rapier::task::EnvConfig;
-use panda_rapier::vector::{AutoresetMode, VecEnv};
+use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -15,7 +15,7 @@ const STEPS: usize = 100;
 const ROUNDS: usize = 3;
 
 fn rate(num_envs: usize, threads: usize) -> panda_rapier::Result<f64> {
-    let mut env = VecEnv::new(
+    let mut env = PandaVecEnv::new(
         EnvConfig::default(),
         num_envs,
         Some(threads),

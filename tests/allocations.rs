@@ -7,7 +7,7 @@
 //! allocations of its own.
 
 use panda_rapier::task::{ControlMode, EnvConfig};
-use panda_rapier::vector::{AutoresetMode, VecEnv};
+use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use panda_rapier::JointControl;
 
 #[global_allocator]
@@ -29,7 +29,7 @@ fn env_steps_allocate_only_what_the_physics_allocates() {
             ..EnvConfig::default()
         };
         let substeps = config.substeps().unwrap();
-        let mut env = VecEnv::new(config, 1, Some(1), AutoresetMode::SameStep).unwrap();
+        let mut env = PandaVecEnv::new(config, 1, Some(1), AutoresetMode::SameStep).unwrap();
         env.reset(Some(0)).unwrap();
         let actions: Vec<Vec<f32>> = (0..STEPS)
             .map(|t| {

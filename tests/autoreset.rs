@@ -6,7 +6,7 @@
 //! - disabled: stepping an ended env is an error until it is reset.
 
 use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
-use panda_rapier::vector::{AutoresetMode, VecEnv};
+use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use panda_rapier::Error;
 
 const LEN: u32 = 5;
@@ -18,7 +18,7 @@ fn config() -> EnvConfig {
     }
 }
 
-fn row(env: &VecEnv, buffer: &[f32], i: usize) -> Vec<f32> {
+fn row(env: &PandaVecEnv, buffer: &[f32], i: usize) -> Vec<f32> {
     let d = env.observation_dim();
     buffer[i * d..(i + 1) * d].to_vec()
 }
@@ -41,7 +41,7 @@ fn standalone_trajectory(action: &[f32]) -> (Vec<Vec<f32>>, Vec<f32>) {
 fn same_step_resets_in_the_ending_step_and_keeps_the_final_observation() {
     let action = [0.3f32, -0.2, 0.1, 1.0];
     let (episode, next_first) = standalone_trajectory(&action);
-    let mut env = VecEnv::new(config(), 2, Some(1), AutoresetMode::SameStep).unwrap();
+    let mut env = PandaVecEnv::new(config(), 2, Some(1), AutoresetMode::SameStep).unwrap();
     env.reset(Some(3)).unwrap();
     assert_eq!(row(&env, env.observations(), 0), episode[0]);
     let actions: Vec<f32> = action.iter().chain(action.iter()).copied().collect();
@@ -71,7 +71,7 @@ fn same_step_resets_in_the_ending_step_and_keeps_the_final_observation() {
 fn next_step_returns_the_last_observation_then_resets() {
     let action = [0.3f32, -0.2, 0.1, 1.0];
     let (episode, next_first) = standalone_trajectory(&action);
-    let mut env = VecEnv::new(config(), 1, Some(1), AutoresetMode::NextStep).unwrap();
+    let mut env = PandaVecEnv::new(config(), 1, Some(1), AutoresetMode::NextStep).unwrap();
     env.reset(Some(3)).unwrap();
     for (t, expected) in episode.iter().enumerate().skip(1) {
         env.step(&action).unwrap();
@@ -94,7 +94,7 @@ fn next_step_returns_the_last_observation_then_resets() {
 #[test]
 fn disabled_requires_an_explicit_reset() {
     let action = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
-    let mut env = VecEnv::new(config(), 2, Some(2), AutoresetMode::Disabled).unwrap();
+    let mut env = PandaVecEnv::new(config(), 2, Some(2), AutoresetMode::Disabled).unwrap();
     env.reset(Some(0)).unwrap();
     for _ in 0..LEN {
         env.step(&action).unwrap();
@@ -126,7 +126,7 @@ fn terminate_on_success_ends_with_terminated() {
         terminate_on_success: true,
         ..EnvConfig::default()
     };
-    let mut env = VecEnv::new(config, 1, Some(1), AutoresetMode::SameStep).unwrap();
+    let mut env = PandaVecEnv::new(config, 1, Some(1), AutoresetMode::SameStep).unwrap();
     env.reset(Some(0)).unwrap();
     // Put the goal where the cube is: the first step succeeds.
     let cube = env.env(0).unwrap().observation()[..3].to_vec();

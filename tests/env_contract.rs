@@ -3,7 +3,7 @@
 use panda_rapier::task::{
     ControlMode, EnvConfig, PandaEnv, ResetOptions, RewardContext, RewardType,
 };
-use panda_rapier::vector::{AutoresetMode, VecEnv};
+use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use panda_rapier::Error;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -203,20 +203,20 @@ fn bad_input_gets_typed_errors() {
         Err(Error::InvalidConfig { .. })
     ));
     assert!(matches!(
-        VecEnv::new(bad_config, 2, None, AutoresetMode::SameStep),
+        PandaVecEnv::new(bad_config, 2, None, AutoresetMode::SameStep),
         Err(Error::InvalidConfig { .. })
     ));
     assert!(matches!(
-        VecEnv::new(EnvConfig::default(), 0, None, AutoresetMode::SameStep),
+        PandaVecEnv::new(EnvConfig::default(), 0, None, AutoresetMode::SameStep),
         Err(Error::InvalidConfig { .. })
     ));
     assert!(matches!(
-        VecEnv::new(EnvConfig::default(), 2, Some(0), AutoresetMode::SameStep),
+        PandaVecEnv::new(EnvConfig::default(), 2, Some(0), AutoresetMode::SameStep),
         Err(Error::InvalidConfig { .. })
     ));
 
     let mut vec_env =
-        VecEnv::new(EnvConfig::default(), 3, Some(2), AutoresetMode::SameStep).unwrap();
+        PandaVecEnv::new(EnvConfig::default(), 3, Some(2), AutoresetMode::SameStep).unwrap();
     assert!(matches!(
         vec_env.step(&[0.0; 12]),
         Err(Error::ResetNeeded { .. })
@@ -278,7 +278,7 @@ fn a_blow_up_truncates_keeps_the_last_valid_observation_and_needs_a_reset() {
     env.step(&[0.0; 4]).unwrap();
 
     // In a vector env the blown-up lane is reset automatically and the others carry on.
-    let mut vec_env = VecEnv::new(config, 2, Some(1), AutoresetMode::SameStep).unwrap();
+    let mut vec_env = PandaVecEnv::new(config, 2, Some(1), AutoresetMode::SameStep).unwrap();
     vec_env.reset(Some(0)).unwrap();
     let mut resets = 0;
     for _ in 0..20 {

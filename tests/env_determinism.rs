@@ -3,7 +3,7 @@
 //! a reset with a seed whatever the environment did before.
 
 use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions};
-use panda_rapier::vector::{AutoresetMode, VecEnv};
+use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -13,7 +13,7 @@ fn random_actions(rng: &mut ChaCha8Rng, n: usize) -> Vec<f32> {
 
 /// Everything a vector env outputs over `steps` steps, as bits.
 fn vec_rollout(num_envs: usize, threads: usize, steps: usize, config: &EnvConfig) -> Vec<Vec<u32>> {
-    let mut env = VecEnv::new(
+    let mut env = PandaVecEnv::new(
         config.clone(),
         num_envs,
         Some(threads),

@@ -6,11 +6,11 @@
 use panda_rapier::demo::{self, hand_down, TutorialSequence};
 use panda_rapier::nalgebra::Vector3;
 use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions};
-use panda_rapier::{ArmModel, Error, IkOptions, JointControl, SimConfig, Simulation};
+use panda_rapier::{ArmFidelity, Error, IkOptions, JointControl, SimConfig, Simulation};
 
 fn kinematic() -> SimConfig {
     SimConfig {
-        arm: ArmModel::Kinematic,
+        arm: ArmFidelity::Kinematic,
         ..SimConfig::default()
     }
 }
@@ -18,7 +18,7 @@ fn kinematic() -> SimConfig {
 #[test]
 fn the_tutorial_grasp_holds_on_the_kinematic_arm() {
     let mut sim = Simulation::new(kinematic()).unwrap();
-    assert_eq!(sim.arm_model(), ArmModel::Kinematic);
+    assert_eq!(sim.arm_model(), ArmFidelity::Kinematic);
     let plan = TutorialSequence::for_scene(&sim);
     let report = demo::run(&mut sim, &plan).unwrap();
     println!(
@@ -110,7 +110,7 @@ fn torque_control_needs_the_dynamic_arm() {
 #[test]
 fn kinematic_episodes_are_bit_identical_and_restore_exactly() {
     let config = EnvConfig {
-        arm: ArmModel::Kinematic,
+        arm: ArmFidelity::Kinematic,
         control_mode: ControlMode::Joints,
         ..EnvConfig::default()
     };

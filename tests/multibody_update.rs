@@ -5,9 +5,9 @@
 
 use panda_rapier::demo::{self, TutorialSequence};
 use panda_rapier::task::EnvConfig;
-use panda_rapier::{ArmModel, Error, MultibodyUpdate, SimConfig, Simulation};
+use panda_rapier::{ArmFidelity, Error, MultibodyUpdate, SimConfig, Simulation};
 
-fn sim_config(arm: ArmModel, update: MultibodyUpdate) -> SimConfig {
+fn sim_config(arm: ArmFidelity, update: MultibodyUpdate) -> SimConfig {
     let mut config = SimConfig {
         arm,
         ..SimConfig::default()
@@ -22,7 +22,7 @@ fn sim_config(arm: ArmModel, update: MultibodyUpdate) -> SimConfig {
 /// success rates under both are in docs/benchmarks.md.)
 #[test]
 fn step_and_substep_updates_follow_the_same_trajectory() {
-    for arm in [ArmModel::Dynamic, ArmModel::Kinematic] {
+    for arm in [ArmFidelity::Dynamic, ArmFidelity::Kinematic] {
         let reports: Vec<_> = [MultibodyUpdate::Step, MultibodyUpdate::Substep]
             .into_iter()
             .map(|update| {

@@ -3,7 +3,7 @@
 //! observation or a typed `Error`, never a panic.
 
 use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
-use panda_rapier::vector::{AutoresetMode, VecEnv};
+use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use panda_rapier::Error;
 use proptest::prelude::*;
 
@@ -113,7 +113,7 @@ proptest! {
         actions in proptest::collection::vec(any_value(), 0..14),
         seed in any::<u64>(),
     ) {
-        let mut envs = VecEnv::new(EnvConfig::default(), 3, Some(1), AutoresetMode::NextStep)
+        let mut envs = PandaVecEnv::new(EnvConfig::default(), 3, Some(1), AutoresetMode::NextStep)
             .unwrap();
         envs.reset(Some(seed)).unwrap();
         match envs.step(&actions) {

@@ -4,18 +4,18 @@
 //! along a surface were the reason for `ee_surface_clearance`).
 
 use panda_rapier::task::{ControlMode, EnvConfig};
-use panda_rapier::vector::{AutoresetMode, VecEnv};
-use panda_rapier::ArmModel;
+use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
+use panda_rapier::ArmFidelity;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 #[test]
 fn random_actions_stay_physical() {
     for (mode, arm) in [
-        (ControlMode::Ee, ArmModel::Dynamic),
-        (ControlMode::Joints, ArmModel::Dynamic),
-        (ControlMode::Ee, ArmModel::Kinematic),
-        (ControlMode::Joints, ArmModel::Kinematic),
+        (ControlMode::Ee, ArmFidelity::Dynamic),
+        (ControlMode::Joints, ArmFidelity::Dynamic),
+        (ControlMode::Ee, ArmFidelity::Kinematic),
+        (ControlMode::Joints, ArmFidelity::Kinematic),
     ] {
         let config = EnvConfig {
             control_mode: mode,
@@ -24,7 +24,7 @@ fn random_actions_stay_physical() {
             ..EnvConfig::default()
         };
         let n = 16;
-        let mut env = VecEnv::new(config, n, Some(2), AutoresetMode::SameStep).unwrap();
+        let mut env = PandaVecEnv::new(config, n, Some(2), AutoresetMode::SameStep).unwrap();
         env.reset(Some(21)).unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(22);
         let mut actions = vec![0.0f32; n * env.action_dim()];

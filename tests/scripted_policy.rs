@@ -5,7 +5,7 @@
 use panda_rapier::nalgebra::{UnitQuaternion, Vector3};
 use panda_rapier::policies::{evaluate, Phase, ScriptedPolicy};
 use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions};
-use panda_rapier::ArmModel;
+use panda_rapier::ArmFidelity;
 
 fn config(mode: ControlMode) -> EnvConfig {
     EnvConfig {
@@ -39,7 +39,7 @@ fn places_the_cube_in_at_least_98_percent_of_200_seeded_episodes() {
 fn places_the_cube_with_the_kinematic_arm_too() {
     for mode in [ControlMode::Ee, ControlMode::Joints] {
         let cfg = EnvConfig {
-            arm: ArmModel::Kinematic,
+            arm: ArmFidelity::Kinematic,
             ..config(mode)
         };
         let report = evaluate(&cfg, 200, 32, Some(2), 0, |_| {}).unwrap();

@@ -104,7 +104,7 @@ pub struct MotorConfig {
     /// with the grasp's slip unchanged (`tests/grasp_sequence.rs`).
     pub finger_armature: f64,
     /// Joint acceleration limit (rad/s^2 or m/s^2) of the kinematic arm
-    /// ([`ArmModel::Kinematic`]). The default matches what the dynamic arm's torque-limited
+    /// ([`ArmFidelity::Kinematic`]). The default matches what the dynamic arm's torque-limited
     /// motors do under the scripted policy (99th percentile 43 rad/s^2 over a control step,
     /// peaks of 50-280), so a policy behaves alike on both arms: at 20 rad/s^2 the scripted
     /// policy overshot and placed 90.5 % (ee) / 97.5 % (joints) of 200 episodes, at 50 it
@@ -178,7 +178,7 @@ impl Default for CubeConfig {
 /// How the arm is simulated: the fidelity level.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum ArmModel {
+pub enum ArmFidelity {
     /// Full dynamics: the arm is a multibody (reduced coordinates) whose torque-limited joint
     /// motors fight gravity, inertia and contacts; joint targets are tracked, not imposed.
     #[default]
@@ -196,12 +196,12 @@ pub enum ArmModel {
     Kinematic,
 }
 
-impl ArmModel {
+impl ArmFidelity {
     /// The name used in configuration files.
     pub fn as_str(self) -> &'static str {
         match self {
-            ArmModel::Dynamic => "dynamic",
-            ArmModel::Kinematic => "kinematic",
+            ArmFidelity::Dynamic => "dynamic",
+            ArmFidelity::Kinematic => "kinematic",
         }
     }
 }
@@ -211,7 +211,7 @@ impl ArmModel {
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
     /// Fidelity of the arm's simulation.
-    pub arm: ArmModel,
+    pub arm: ArmFidelity,
     /// Gravity (m/s^2).
     pub gravity: [f64; 3],
     /// Robot description; `None` uses the bundled Panda (`assets/panda/panda.urdf`).
@@ -240,7 +240,7 @@ pub struct SimConfig {
 impl Default for SimConfig {
     fn default() -> Self {
         Self {
-            arm: ArmModel::Dynamic,
+            arm: ArmFidelity::Dynamic,
             gravity: [0.0, 0.0, -9.81],
             robot_urdf: None,
             robot_base: [0.0, 0.0, 0.0],

@@ -11,7 +11,7 @@
 //! - [`SimConfig`]: validated, serde-deserialisable configuration.
 //! - [`Task`]: what differs between tasks ([`task::PickAndPlace`] is the first).
 //! - [`PandaEnv`] / [`EnvConfig`]: one environment running a task.
-//! - [`VecEnv`]: many environments stepped in parallel into contiguous buffers.
+//! - [`PandaVecEnv`]: many environments stepped in parallel into contiguous buffers.
 //! - [`Error`]: every failure, typed.
 
 pub mod assets;
@@ -25,7 +25,7 @@ pub mod task;
 pub mod vector;
 
 pub use config::{
-    ArmModel, CubeConfig, MotorConfig, MultibodyUpdate, PlatformConfig, SimConfig, SolverConfig,
+    ArmFidelity, CubeConfig, MotorConfig, MultibodyUpdate, PlatformConfig, SimConfig, SolverConfig,
 };
 pub use error::{Error, Result};
 pub use kinematics::{pointing_down, IkOptions, IkReport, IkSolution, IkWorkspace};
@@ -40,7 +40,7 @@ pub use task::{
     ControlMode, EnvConfig, EnvSnapshot, ObservationLayout, PandaEnv, ResetOptions, RewardType,
     StepInfo, Task, TaskKind, Transition,
 };
-pub use vector::{AutoresetMode, VecEnv};
+pub use vector::{AutoresetMode, PandaVecEnv};
 
 /// Re-exported so users can name the math types of the API without a second nalgebra.
 pub use nalgebra;

@@ -1,4 +1,4 @@
-//! [`VecEnv`]: many [`PandaEnv`]s stepped in parallel on a rayon pool of their own, into
+//! [`PandaVecEnv`]: many [`PandaEnv`]s stepped in parallel on a rayon pool of their own, into
 //! contiguous, preallocated buffers.
 //!
 //! Environment `i` draws from random stream `(seed, i)` and is stepped by whichever thread picks
@@ -13,7 +13,7 @@ use crate::task::{
     EnvConfig, ObservationLayout, PandaEnv, ResetOptions, RewardContext, StepInfo, Transition,
 };
 
-/// What happens when an episode ends inside [`VecEnv::step`].
+/// What happens when an episode ends inside [`PandaVecEnv::step`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum AutoresetMode {
@@ -24,9 +24,9 @@ pub enum AutoresetMode {
     NextStep,
     /// stable-baselines3's convention: the step that ends an episode resets the environment at
     /// once and returns the new episode's first observation; the last one is kept in
-    /// [`VecEnv::final_observations`].
+    /// [`PandaVecEnv::final_observations`].
     SameStep,
-    /// No automatic reset: ended environments must be reset with [`VecEnv::reset_masked`]
+    /// No automatic reset: ended environments must be reset with [`PandaVecEnv::reset_masked`]
     /// before the next step.
     Disabled,
 }
@@ -57,10 +57,10 @@ struct Lane {
 }
 
 /// N pick-and-place environments stepped in parallel.
-pub struct VecEnv {
+pub struct PandaVecEnv {
     lanes: Vec<Lane>,
     pool: Option<rayon::ThreadPool>,
-    /// The process that started the pool's threads (see [`VecEnv::ensure_pool_usable`]).
+    /// The process that started the pool's threads (see [`PandaVecEnv::ensure_pool_usable`]).
     pool_pid: u32,
     num_threads: usize,
     autoreset: AutoresetMode,
@@ -75,9 +75,9 @@ pub struct VecEnv {
     was_reset: Vec<bool>,
 }
 
-impl std::fmt::Debug for VecEnv {
+impl std::fmt::Debug for PandaVecEnv {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("VecEnv")
+        f.debug_struct("PandaVecEnv")
             .field("num_envs", &self.lanes.len())
             .field("num_threads", &self.num_threads)
             .field("autoreset", &self.autoreset)
@@ -85,7 +85,7 @@ impl std::fmt::Debug for VecEnv {
     }
 }
 
-impl VecEnv {
+impl PandaVecEnv {
     /// Builds `num_envs` environments (environment `i` with random stream `i`) and a pool of
     /// `num_threads` threads (`None`: the machine's cores, at most `num_envs`; 1 steps on the
     /// calling thread).
@@ -232,12 +232,12 @@ impl VecEnv {
     }
 
     /// Last observations of the episodes that ended in the last step (same-step mode); rows
-    /// where [`VecEnv::has_final_observation`] is false hold stale data.
+    /// where [`PandaVecEnv::has_final_observation`] is false hold stale data.
     pub fn final_observations(&self) -> &[f32] {
         &self.final_observations
     }
 
-    /// Which rows of [`VecEnv::final_observations`] are fresh.
+    /// Which rows of [`PandaVecEnv::final_observations`] are fresh.
     pub fn has_final_observation(&self) -> &[bool] {
         &self.has_final
     }
@@ -274,7 +274,7 @@ impl VecEnv {
     }
 
     /// Info of the first step of the episode that a same-step autoreset started, for row `i`
-    /// (only meaningful where [`VecEnv::has_final_observation`] is true).
+    /// (only meaningful where [`PandaVecEnv::has_final_observation`] is true).
     pub fn reset_info(&self, i: usize) -> Result<&StepInfo> {
         self.lane(i).map(|l| &l.reset_info)
     }

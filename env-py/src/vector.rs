@@ -1,8 +1,8 @@
-//! `NativeVecEnv`: the core [`VecEnv`] (a rayon pool stepping N environments) with batched
-//! numpy outputs, for the Gymnasium vector env and the stable-baselines3 `VecEnv`.
+//! `NativeVecEnv`: the core [`PandaVecEnv`] (a rayon pool stepping N environments) with batched
+//! numpy outputs, for the Gymnasium vector env and the stable-baselines3 `PandaVecEnv`.
 
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
-use panda_rapier_core::{AutoresetMode, VecEnv};
+use panda_rapier_core::{AutoresetMode, PandaVecEnv};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -13,7 +13,7 @@ use crate::errors::{detached, invalid, to_py, Blame};
 /// N environments stepped in parallel.
 #[pyclass(module = "panda_rapier._native", name = "NativeVecEnv")]
 pub struct NativeVecEnv {
-    pub(crate) vec: VecEnv,
+    pub(crate) vec: PandaVecEnv,
     actions: Vec<f32>,
 }
 
@@ -54,7 +54,7 @@ impl NativeVecEnv {
                 ))
             }
         };
-        let vec = detached(py, || VecEnv::new(config, num_envs, num_threads, mode))?
+        let vec = detached(py, || PandaVecEnv::new(config, num_envs, num_threads, mode))?
             .map_err(|e| to_py(py, e, Blame::Config))?;
         let actions = vec![0.0; num_envs * vec.action_dim()];
         Ok(Self { vec, actions })

@@ -1,7 +1,7 @@
 //! Seeded evaluation of a policy on the vector environment.
 
 use panda_rapier_core::task::EnvConfig;
-use panda_rapier_core::{AutoresetMode, Result, VecEnv};
+use panda_rapier_core::{AutoresetMode, PandaVecEnv, Result};
 
 use crate::ScriptedPolicy;
 
@@ -90,7 +90,7 @@ pub fn evaluate(
             })?;
     let mut policy = ScriptedPolicy::new(config)?;
     let num_envs = num_envs.clamp(1, episodes.max(1));
-    let mut envs = VecEnv::new(
+    let mut envs = PandaVecEnv::new(
         config.clone(),
         num_envs,
         num_threads,

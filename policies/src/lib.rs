@@ -8,7 +8,7 @@
 //! - [`tutorial`]: the classic tutorial's open-loop pick-and-place sequence on a bare
 //!   [`panda_rapier_core::Simulation`], with slip and tracking measurements (a test of the
 //!   physics rather than a policy).
-//! - [`evaluate`]: runs a policy on seeded episodes of a [`panda_rapier_core::VecEnv`] and
+//! - [`evaluate`]: runs a policy on seeded episodes of a [`panda_rapier_core::PandaVecEnv`] and
 //!   reports success rate, steps to success and returns.
 
 pub mod evaluation;

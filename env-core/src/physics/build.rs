@@ -20,7 +20,7 @@ use super::{
     Arm, DofSlot, JointControl, Scene, SceneObject, Simulation, ARM_GROUP, OBJECT_GROUP,
     PROXIMAL_GROUP, STATIC_GROUP,
 };
-use crate::config::{ArmModel, MultibodyUpdate, SimConfig};
+use crate::config::{ArmFidelity, MultibodyUpdate, SimConfig};
 use crate::error::{Error, Result};
 use crate::model::{JointType, RobotModel};
 use crate::robot::{base_pose, home_configuration, Gripper};
@@ -164,7 +164,7 @@ impl Simulation {
         let urdf_robot = UrdfRobot::from_robot(model.urdf(), options, std::path::Path::new("/"));
         let link_sources: Vec<usize> = urdf_robot.links.iter().map(|l| l.urdf_link_index).collect();
         let (link_handles, link_sources, joint_slots, arm) = match config.arm {
-            ArmModel::Dynamic => {
+            ArmFidelity::Dynamic => {
                 let (handles, joint_slots, multibody) = insert_multibody(
                     &mut world,
                     urdf_robot,
@@ -180,7 +180,7 @@ impl Simulation {
                     Arm::Dynamic { multibody },
                 )
             }
-            ArmModel::Kinematic => {
+            ArmFidelity::Kinematic => {
                 let built =
                     build_kinematic_arm(&mut world, &model, &config, urdf_robot, gripper.as_ref())?;
                 (

@@ -1,4 +1,4 @@
-//! The Fetch-style arm of [`ArmModel::Kinematic`]: links placed along the commanded joint
+//! The Fetch-style arm of [`ArmFidelity::Kinematic`]: links placed along the commanded joint
 //! trajectory, fingers left to the physics.
 
 use nalgebra::Isometry3;
@@ -8,11 +8,11 @@ use rapier3d::parry::query::intersection_test;
 
 use super::convert::pose_from_na;
 use super::{Arm, JointControl, JointState, Simulation};
-use crate::config::ArmModel;
+use crate::config::ArmFidelity;
 use crate::error::{Error, Result};
 use crate::model::RobotModel;
 
-/// The arm of [`ArmModel::Kinematic`]: the joint trajectory its links follow.
+/// The arm of [`ArmFidelity::Kinematic`]: the joint trajectory its links follow.
 #[derive(Debug, Clone, Default)]
 pub(super) struct KinematicArm {
     /// Position and velocity of every actuated dof (the gripper's entries are unused: the
@@ -45,7 +45,7 @@ impl KinematicArm {
 
 impl Simulation {
     /// How the arm is simulated.
-    pub fn arm_model(&self) -> ArmModel {
+    pub fn arm_model(&self) -> ArmFidelity {
         self.config.arm
     }
 

@@ -3,7 +3,7 @@
 //! A [`Simulation`] holds one physics world: the floor, the [`Scene`] a task asks for (the
 //! platform and the movable objects, reached through [`ObjectId`]s) and a robot built from a
 //! [`RobotModel`], its arm either a rapier multibody with joint motors or placed along its joint
-//! trajectory ([`crate::ArmModel`]). Everything it hands out is in f64 nalgebra types; rapier's
+//! trajectory ([`crate::ArmFidelity`]). Everything it hands out is in f64 nalgebra types; rapier's
 //! types stay inside. Its public surface, by concern (one file each):
 //!
 //! | concern | file | what |
@@ -15,7 +15,7 @@
 //! | contacts | `contacts.rs` | [`ObjectContacts`], [`ObjectTouch`]: what touches an object |
 //! | visuals | `visuals.rs` | [`VisualPrimitive`]: every collider's shape and pose, for renderers |
 //! | snapshots | `snapshot.rs` | [`SimSnapshot`]: save and restore the whole state |
-//! | kinematic arm | `kinematic_arm.rs` | the placed arm of [`crate::ArmModel::Kinematic`] |
+//! | kinematic arm | `kinematic_arm.rs` | the placed arm of [`crate::ArmFidelity::Kinematic`] |
 //!
 //! Stepping ([`Simulation::step`], [`Simulation::step_control`]) and the blow-up checks
 //! ([`Simulation::max_body_speeds`], [`Simulation::is_finite`]) are here.
@@ -69,7 +69,7 @@ struct DofSlot {
     parent_body: RigidBodyHandle,
 }
 
-/// How the arm is simulated ([`crate::ArmModel`]), with what each kind needs.
+/// How the arm is simulated ([`crate::ArmFidelity`]), with what each kind needs.
 #[derive(Debug, Clone)]
 enum Arm {
     /// The whole robot is one multibody with joint motors.

@@ -10,7 +10,7 @@ pub mod panda;
 
 use nalgebra::{Isometry3, UnitQuaternion};
 
-use crate::config::{ArmModel, SimConfig};
+use crate::config::{ArmFidelity, SimConfig};
 use crate::error::{Error, Result};
 use crate::kinematics::pointing_down;
 use crate::model::{JointType, RobotModel};
@@ -90,7 +90,7 @@ impl Gripper {
 #[derive(Debug, Clone)]
 pub struct Robot {
     model: RobotModel,
-    arm: ArmModel,
+    arm: ArmFidelity,
     base: Isometry3<f64>,
     start: Vec<f64>,
     gripper: Gripper,
@@ -143,7 +143,7 @@ impl Robot {
     }
 
     /// How the arm is simulated.
-    pub fn arm_model(&self) -> ArmModel {
+    pub fn arm_model(&self) -> ArmFidelity {
         self.arm
     }
 
@@ -226,7 +226,7 @@ fn start_configuration(config: &SimConfig, model: &RobotModel) -> Result<Vec<f64
     let gripper = Gripper::of(model).map(|g| g.dof);
     for (dof, value) in q.iter_mut().enumerate() {
         // A fresh multibody's coordinates are 0, so setting one stores exactly its f32 value.
-        if config.arm == ArmModel::Dynamic || Some(dof) == gripper {
+        if config.arm == ArmFidelity::Dynamic || Some(dof) == gripper {
             *value = *value as f32 as f64;
         }
     }

@@ -5,7 +5,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{invalid, non_negative, positive, ArmModel, SimConfig};
+use crate::config::{invalid, non_negative, positive, ArmFidelity, SimConfig};
 use crate::error::Result;
 use crate::task::reward::RewardWeights;
 
@@ -315,8 +315,8 @@ pub struct EnvConfig {
     pub thresholds: TaskThresholds,
     /// Fidelity of the arm's simulation: `dynamic` (the default: a torque-limited multibody)
     /// or `kinematic` (Fetch-style: links follow the commanded trajectory, fingers and cube
-    /// dynamic; several times faster). See [`ArmModel`]. It sets `sim.arm`.
-    pub arm: ArmModel,
+    /// dynamic; several times faster). See [`ArmFidelity`]. It sets `sim.arm`.
+    pub arm: ArmFidelity,
     /// The scene and the physics. The environment places the cube itself at every reset, so
     /// `sim.cube.position` is not used; `sim.solver.substeps` is derived from
     /// `control_frequency` and `sim.arm` from `arm`.
@@ -352,7 +352,7 @@ impl Default for EnvConfig {
             ee_surface_margin: 0.05,
             randomization: Randomization::default(),
             thresholds: TaskThresholds::default(),
-            arm: ArmModel::Dynamic,
+            arm: ArmFidelity::Dynamic,
             sim: SimConfig::default(),
         }
     }
@@ -403,7 +403,7 @@ impl EnvConfig {
     pub fn sim_config(&self) -> Result<SimConfig> {
         let mut sim = self.sim.clone();
         sim.solver.substeps = self.substeps()?;
-        if sim.arm != ArmModel::Dynamic && sim.arm != self.arm {
+        if sim.arm != ArmFidelity::Dynamic && sim.arm != self.arm {
             return Err(invalid(
                 "sim.arm",
                 format!(

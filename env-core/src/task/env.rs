@@ -77,7 +77,7 @@ pub struct StepInfo {
     pub ik_position_error: f64,
     /// Steps taken in this episode.
     pub elapsed_steps: u32,
-    /// The kinematic arm ([`crate::ArmModel::Kinematic`]) refused part of this step's motion
+    /// The kinematic arm ([`crate::ArmFidelity::Kinematic`]) refused part of this step's motion
     /// because a link would have entered the floor or the platform; always false for the
     /// dynamic arm.
     pub arm_blocked: bool,
