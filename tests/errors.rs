@@ -161,9 +161,10 @@ fn invalid_configs_and_assets_are_rejected() {
         initial_configuration: Some(vec![0.0; 3]),
         ..Default::default()
     };
+    // A configuration error, not an argument's: the value came from the configuration.
     assert!(matches!(
         Simulation::new(config),
-        Err(Error::WrongLength { .. })
+        Err(Error::InvalidConfig { field, .. }) if field == "initial_configuration"
     ));
     std::fs::remove_dir_all(&dir).unwrap();
 

@@ -614,6 +614,16 @@ impl Simulation {
             }
             None => vec![0.0; sim.model.num_dofs()],
         };
+        if q0.len() != sim.model.num_dofs() {
+            return Err(Error::InvalidConfig {
+                field: "initial_configuration".into(),
+                reason: format!(
+                    "must have {} values (one per actuated joint), got {}",
+                    sim.model.num_dofs(),
+                    q0.len()
+                ),
+            });
+        }
         sim.set_joint_positions(&q0)?;
         Ok(sim)
     }
