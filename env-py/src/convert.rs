@@ -8,7 +8,7 @@ use panda_rapier_core::StepInfo;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 
-use crate::errors::{invalid, Blame};
+use crate::errors::{invalid, ErrorClass};
 
 /// One info key: its name and how to read it from a [`StepInfo`].
 enum InfoField {
@@ -138,7 +138,7 @@ pub(crate) fn compute_reward<'py>(
             {
                 return Err(invalid(
                     py,
-                    "InvalidArgumentError",
+                    ErrorClass::InvalidArgument,
                     format!("info must describe {n} transitions, one per goal pair"),
                 ));
             }
@@ -160,7 +160,7 @@ pub(crate) fn compute_reward<'py>(
     let mut rewards = vec![0.0f32; n];
     function
         .compute_batch(achieved, desired, &contexts, &mut rewards)
-        .map_err(|e| crate::errors::to_py(py, e, Blame::Argument))?;
+        .map_err(|e| crate::errors::to_py(py, e))?;
     Ok(PyArray1::from_vec(
         py,
         rewards.into_iter().map(f64::from).collect(),
@@ -177,7 +177,7 @@ pub(crate) fn contiguous<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(
     array.as_slice().map_err(|_| {
         invalid(
             py,
-            "InvalidArgumentError",
+            ErrorClass::InvalidArgument,
             format!("{what} must be a C-contiguous array"),
         )
     })
@@ -197,7 +197,7 @@ pub(crate) fn quaternion_xyzw(py: Python<'_>, q: [f64; 4]) -> PyResult<UnitQuate
     if !norm.is_finite() || norm < 1e-9 {
         return Err(invalid(
             py,
-            "InvalidArgumentError",
+            ErrorClass::InvalidArgument,
             format!("orientation must be a non-zero, finite quaternion (x, y, z, w), got {q:?}"),
         ));
     }
