@@ -5,6 +5,24 @@ from typing import Any, final
 import numpy as np
 import numpy.typing as npt
 
+__all__ = [
+    "AssetError",
+    "ConfigError",
+    "DisplayError",
+    "EnvState",
+    "InvalidActionError",
+    "InvalidArgumentError",
+    "NativeEnv",
+    "NativeRenderer",
+    "NativeScriptedPolicy",
+    "NativeVecEnv",
+    "PandaRapierError",
+    "ResetNeededError",
+    "__version__",
+    "default_config_json",
+    "tutorial_fidelity",
+]
+
 __version__: str
 
 # The exception classes (env-py/src/errors.rs creates them, with their docstrings, when the
