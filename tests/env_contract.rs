@@ -154,18 +154,19 @@ fn bad_input_gets_typed_errors() {
     ));
     env.reset(Some(0), &ResetOptions::default()).unwrap();
     let before = env.observation().to_vec();
-    assert!(matches!(
-        env.step(&[0.0; 3]),
-        Err(Error::WrongLength {
-            expected: 4,
-            got: 3,
-            ..
-        })
-    ));
+    match env.step(&[0.0; 3]) {
+        Err(e @ Error::InvalidAction { .. }) => {
+            assert_eq!(e.to_string(), "action must have 4 values, got 3")
+        }
+        other => panic!("expected InvalidAction, got {other:?}"),
+    }
     for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
         match env.step(&[0.0, bad, 0.0, 0.0]) {
-            Err(Error::NonFinite { what, .. }) => assert_eq!(what, "action[1]"),
-            other => panic!("expected NonFinite, got {other:?}"),
+            Err(Error::InvalidAction { what, reason }) => {
+                assert_eq!(what, "action[1]");
+                assert_eq!(reason, format!("must be finite, got {bad}"));
+            }
+            other => panic!("expected InvalidAction, got {other:?}"),
         }
     }
     assert_eq!(
@@ -181,17 +182,17 @@ fn bad_input_gets_typed_errors() {
         goal: Some([0.5, f64::NAN, 0.1]),
         ..ResetOptions::default()
     };
-    assert!(matches!(
-        env.reset(None, &bad_options),
-        Err(Error::NonFinite { .. })
-    ));
+    match env.reset(None, &bad_options) {
+        Err(Error::InvalidOption { what, .. }) => assert_eq!(what, "options.goal[1]"),
+        other => panic!("expected InvalidOption, got {other:?}"),
+    }
     let short_q = ResetOptions {
         joint_positions: Some(vec![0.0; 3]),
         ..ResetOptions::default()
     };
     assert!(matches!(
         env.reset(None, &short_q),
-        Err(Error::WrongLength { .. })
+        Err(Error::InvalidOption { .. })
     ));
 
     let bad_config = EnvConfig {
@@ -222,16 +223,16 @@ fn bad_input_gets_typed_errors() {
         Err(Error::ResetNeeded { .. })
     ));
     vec_env.reset(Some(0)).unwrap();
-    assert!(matches!(
-        vec_env.step(&[0.0; 11]),
-        Err(Error::WrongLength { expected: 12, .. })
-    ));
+    match vec_env.step(&[0.0; 11]) {
+        Err(e @ Error::InvalidAction { .. }) => assert!(e.to_string().contains("12 values"), "{e}"),
+        other => panic!("expected InvalidAction, got {other:?}"),
+    }
     let mut actions = [0.0f32; 12];
     actions[9] = f32::NAN;
     let before = vec_env.observations().to_vec();
     match vec_env.step(&actions) {
-        Err(Error::NonFinite { what, .. }) => assert!(what.contains("environment 2"), "{what}"),
-        other => panic!("expected NonFinite, got {other:?}"),
+        Err(Error::InvalidAction { what, .. }) => assert_eq!(what, "action[1] of environment 2"),
+        other => panic!("expected InvalidAction, got {other:?}"),
     }
     assert_eq!(
         vec_env.observations(),

@@ -163,11 +163,138 @@ fn invalid_configs_and_assets_are_rejected() {
         initial_configuration: Some(vec![0.0; 3]),
         ..Default::default()
     };
+    // A configuration error, not an argument's: the value came from the configuration.
     assert!(matches!(
         Simulation::new(config),
-        Err(Error::WrongLength { .. })
+        Err(Error::InvalidConfig { field, .. }) if field == "initial_configuration"
     ));
     std::fs::remove_dir_all(&dir).unwrap();
 
     assert!(RobotModel::from_urdf_str("not xml at all", ".").is_err());
+}
+
+/// The Python bindings' choice of exception class per variant (`env-py/src/error_class.rs`,
+/// plain Rust, compiled here because the bindings crate has no Rust test harness).
+#[allow(dead_code)]
+#[path = "../env-py/src/error_class.rs"]
+mod error_class;
+
+#[test]
+fn every_error_variant_maps_to_its_python_class() {
+    use error_class::ErrorClass as Class;
+    let text = || String::from("x");
+    // One value of every variant; a variant missing here is raised as the base class
+    // (`PandaRapierError`) until it is listed with the class it should be.
+    let cases = [
+        (
+            Error::AssetNotFound {
+                path: "/nope".into(),
+                reason: text(),
+            },
+            Class::Asset,
+        ),
+        (
+            Error::MalformedUrdf {
+                source_name: text(),
+                reason: text(),
+            },
+            Class::Asset,
+        ),
+        (
+            Error::MissingMesh {
+                filename: text(),
+                urdf: text(),
+                tried: text(),
+            },
+            Class::Asset,
+        ),
+        (
+            Error::UnknownJoint {
+                name: text(),
+                known: text(),
+            },
+            Class::InvalidArgument,
+        ),
+        (
+            Error::UnknownLink {
+                name: text(),
+                known: text(),
+            },
+            Class::InvalidArgument,
+        ),
+        (
+            Error::JointIndexOutOfRange { index: 9, count: 8 },
+            Class::InvalidArgument,
+        ),
+        (
+            Error::JointNotCommandable {
+                name: text(),
+                reason: text(),
+            },
+            Class::InvalidArgument,
+        ),
+        (
+            Error::NonFinite {
+                what: text(),
+                value: f64::NAN,
+            },
+            Class::InvalidArgument,
+        ),
+        (
+            Error::WrongLength {
+                what: text(),
+                expected: 3,
+                got: 2,
+            },
+            Class::InvalidArgument,
+        ),
+        (
+            Error::InvalidAction {
+                what: text(),
+                reason: text(),
+            },
+            Class::InvalidAction,
+        ),
+        (
+            Error::InvalidOption {
+                what: text(),
+                reason: text(),
+            },
+            Class::InvalidArgument,
+        ),
+        (
+            Error::InvalidConfig {
+                field: text(),
+                reason: text(),
+            },
+            Class::Config,
+        ),
+        (
+            Error::IkNotConverged {
+                position_error: 0.1,
+                orientation_error: 0.1,
+                iterations: 100,
+            },
+            Class::PandaRapier,
+        ),
+        (Error::ResetNeeded { reason: text() }, Class::ResetNeeded),
+        (
+            Error::SnapshotMismatch { reason: text() },
+            Class::InvalidArgument,
+        ),
+    ];
+    for (error, class) in &cases {
+        assert_eq!(Class::of(error), *class, "{error:?}");
+    }
+    // Every class the core can produce is covered, and each has a distinct Python name.
+    for class in Class::ALL {
+        let produced = cases.iter().any(|(_, c)| *c == class);
+        assert!(
+            produced || class == Class::Display,
+            "{class:?} is never raised"
+        );
+        let same_name = Class::ALL.iter().filter(|c| c.name() == class.name());
+        assert_eq!(same_name.count(), 1, "{}", class.name());
+    }
+    assert!(Class::ALL.iter().all(|c| c.name().ends_with("Error")));
 }

@@ -80,7 +80,7 @@ proptest! {
                 prop_assert!(t.reward.is_finite());
             }
             Err(e) => prop_assert!(
-                matches!(e, Error::WrongLength { .. } | Error::NonFinite { .. }),
+                matches!(e, Error::InvalidAction { .. }),
                 "{e:?}"
             ),
         }
@@ -119,7 +119,7 @@ proptest! {
         match envs.step(&actions) {
             Ok(()) => prop_assert!(envs.observations().iter().all(|v| v.is_finite())),
             Err(e) => prop_assert!(
-                matches!(e, Error::WrongLength { .. } | Error::NonFinite { .. }),
+                matches!(e, Error::InvalidAction { .. }),
                 "{e:?}"
             ),
         }

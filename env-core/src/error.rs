@@ -83,6 +83,24 @@ pub enum Error {
         /// The length passed.
         got: usize,
     },
+    /// An action passed to `step` has the wrong number of values or holds a NaN or infinite one.
+    /// The environment did not move.
+    #[error("{what} {reason}")]
+    InvalidAction {
+        /// Which action or entry (`action[1]`, `action[1] of environment 2`).
+        what: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A reset option has the wrong number of values, holds a NaN or infinite one, or gives a
+    /// start state that is not finite.
+    #[error("invalid reset option: {what} {reason}")]
+    InvalidOption {
+        /// Which option or entry (`options.goal[1]`).
+        what: String,
+        /// What is wrong with it.
+        reason: String,
+    },
     /// A configuration value outside its valid range.
     #[error("invalid config: `{field}` {reason}")]
     InvalidConfig {

@@ -323,11 +323,16 @@ impl PandaVecEnv {
     /// Every action is checked before any environment moves: on an error nothing has changed.
     pub fn step(&mut self, actions: &[f32]) -> Result<()> {
         let n = self.lanes.len();
-        ensure_len(
-            "actions (num_envs x action_dim)",
-            n * self.action_dim,
-            actions.len(),
-        )?;
+        if actions.len() != n * self.action_dim {
+            return Err(Error::InvalidAction {
+                what: "actions (num_envs x action_dim)".into(),
+                reason: format!(
+                    "must have {} values, got {}",
+                    n * self.action_dim,
+                    actions.len()
+                ),
+            });
+        }
         for (i, lane) in self.lanes.iter().enumerate() {
             let action = &actions[i * self.action_dim..(i + 1) * self.action_dim];
             lane.env
@@ -486,18 +491,9 @@ fn out_of_range(index: usize, count: usize) -> Error {
 /// Names the environment in an error about one row of a batch.
 fn with_env_index(error: Error, i: usize) -> Error {
     match error {
-        Error::NonFinite { what, value } => Error::NonFinite {
+        Error::InvalidAction { what, reason } => Error::InvalidAction {
             what: format!("{what} of environment {i}"),
-            value,
-        },
-        Error::WrongLength {
-            what,
-            expected,
-            got,
-        } => Error::WrongLength {
-            what: format!("{what} of environment {i}"),
-            expected,
-            got,
+            reason,
         },
         other => other,
     }

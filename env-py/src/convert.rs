@@ -8,7 +8,7 @@ use panda_rapier_core::{Error, StepInfo};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 
-use crate::errors::{invalid, Blame};
+use crate::errors::{invalid, ErrorClass};
 
 /// The info of one step as a dict of Python scalars.
 pub(crate) fn info_dict<'py>(py: Python<'py>, info: &StepInfo) -> PyResult<Bound<'py, PyDict>> {
@@ -115,7 +115,7 @@ pub(crate) fn compute_reward<'py>(
             {
                 return Err(invalid(
                     py,
-                    "InvalidArgumentError",
+                    ErrorClass::InvalidArgument,
                     format!("info must describe {n} transitions, one per goal pair"),
                 ));
             }
@@ -135,8 +135,7 @@ pub(crate) fn compute_reward<'py>(
         }
     };
     let mut rewards = vec![0.0f32; n];
-    compute(achieved, desired, &contexts, &mut rewards)
-        .map_err(|e| crate::errors::to_py(py, e, Blame::Argument))?;
+    compute(achieved, desired, &contexts, &mut rewards).map_err(|e| crate::errors::to_py(py, e))?;
     Ok(PyArray1::from_vec(
         py,
         rewards.into_iter().map(f64::from).collect(),
@@ -153,7 +152,7 @@ pub(crate) fn contiguous<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(
     array.as_slice().map_err(|_| {
         invalid(
             py,
-            "InvalidArgumentError",
+            ErrorClass::InvalidArgument,
             format!("{what} must be a C-contiguous array"),
         )
     })
@@ -173,7 +172,7 @@ pub(crate) fn quaternion_xyzw(py: Python<'_>, q: [f64; 4]) -> PyResult<UnitQuate
     if !norm.is_finite() || norm < 1e-9 {
         return Err(invalid(
             py,
-            "InvalidArgumentError",
+            ErrorClass::InvalidArgument,
             format!("orientation must be a non-zero, finite quaternion (x, y, z, w), got {q:?}"),
         ));
     }

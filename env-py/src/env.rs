@@ -8,11 +8,11 @@ use pyo3::types::{PyDict, PyList};
 use crate::convert::{
     compute_reward, contiguous, info_dict, pose_tuple, quaternion_xyzw, vector3, ContextColumns,
 };
-use crate::errors::{detached, invalid, to_py, Blame};
+use crate::errors::{detached, invalid, to_py, ErrorClass};
 
 /// Reads a JSON configuration (the Python side serialises the keyword arguments).
 pub(crate) fn parse_config(py: Python<'_>, config_json: &str) -> PyResult<EnvConfig> {
-    EnvConfig::from_json(config_json).map_err(|e| to_py(py, e, Blame::Config))
+    EnvConfig::from_json(config_json).map_err(|e| to_py(py, e))
 }
 
 /// A saved environment state (`NativeEnv.save_state`), restorable into any environment with
@@ -41,10 +41,7 @@ impl NativeEnv {
     }
 
     fn refreshed(&mut self, py: Python<'_>) -> PyResult<()> {
-        self.env
-            .refresh()
-            .map(|_| ())
-            .map_err(|e| to_py(py, e, Blame::Argument))
+        self.env.refresh().map(|_| ()).map_err(|e| to_py(py, e))
     }
 }
 
@@ -54,8 +51,8 @@ impl NativeEnv {
     #[pyo3(signature = (config_json, index = 0))]
     fn new(py: Python<'_>, config_json: &str, index: u64) -> PyResult<Self> {
         let config = parse_config(py, config_json)?;
-        let env = detached(py, || PandaEnv::with_index(config, index))?
-            .map_err(|e| to_py(py, e, Blame::Config))?;
+        let env =
+            detached(py, || PandaEnv::with_index(config, index))?.map_err(|e| to_py(py, e))?;
         let action = vec![0.0; env.action_dim()];
         Ok(Self { env, action })
     }
@@ -101,12 +98,16 @@ impl NativeEnv {
     ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, PyDict>)> {
         let options: ResetOptions = match options_json {
             None => ResetOptions::default(),
-            Some(text) => serde_json::from_str(text)
-                .map_err(|e| invalid(py, "InvalidArgumentError", format!("reset options: {e}")))?,
+            Some(text) => serde_json::from_str(text).map_err(|e| {
+                invalid(
+                    py,
+                    ErrorClass::InvalidArgument,
+                    format!("reset options: {e}"),
+                )
+            })?,
         };
         let env = &mut self.env;
-        detached(py, || env.reset(seed, &options).map(|_| ()))?
-            .map_err(|e| to_py(py, e, Blame::Argument))?;
+        detached(py, || env.reset(seed, &options).map(|_| ()))?.map_err(|e| to_py(py, e))?;
         self.step_result(py)
     }
 
@@ -127,7 +128,7 @@ impl NativeEnv {
         if values.len() != self.action.len() {
             return Err(invalid(
                 py,
-                "InvalidActionError",
+                ErrorClass::InvalidAction,
                 format!(
                     "action must have shape ({},), got ({},)",
                     self.action.len(),
@@ -137,8 +138,7 @@ impl NativeEnv {
         }
         self.action.copy_from_slice(values);
         let Self { env, action } = self;
-        let transition =
-            detached(py, || env.step(action))?.map_err(|e| to_py(py, e, Blame::Action))?;
+        let transition = detached(py, || env.step(action))?.map_err(|e| to_py(py, e))?;
         let (observation, info) = self.step_result(py)?;
         Ok((
             observation,
@@ -195,9 +195,7 @@ impl NativeEnv {
 
     /// Returns to a saved state; stepping on continues bit-identically.
     fn restore_state(&mut self, py: Python<'_>, state: &NativeSnapshot) -> PyResult<()> {
-        self.env
-            .restore(&state.snapshot)
-            .map_err(|e| to_py(py, e, Blame::Argument))
+        self.env.restore(&state.snapshot).map_err(|e| to_py(py, e))
     }
 
     // ---- the robot ------------------------------------------------------------------------
@@ -236,7 +234,7 @@ impl NativeEnv {
             .env
             .simulation()
             .link_state(name)
-            .map_err(|e| to_py(py, e, Blame::Argument))?;
+            .map_err(|e| to_py(py, e))?;
         let dict = PyDict::new(py);
         let s = link.state;
         let q = s.orientation.coords;
@@ -270,7 +268,7 @@ impl NativeEnv {
         self.env
             .simulation_mut()
             .set_joint_positions(&q)
-            .map_err(|e| to_py(py, e, Blame::Argument))?;
+            .map_err(|e| to_py(py, e))?;
         self.refreshed(py)
     }
 
@@ -297,7 +295,7 @@ impl NativeEnv {
             other => {
                 return Err(invalid(
                     py,
-                    "InvalidArgumentError",
+                    ErrorClass::InvalidArgument,
                     format!(
                         "control mode must be 'position', 'velocity' or 'torque', got {other:?}"
                     ),
@@ -312,11 +310,11 @@ impl NativeEnv {
         } else {
             return Err(invalid(
                 py,
-                "InvalidArgumentError",
+                ErrorClass::InvalidArgument,
                 "joint must be a joint index (int >= 0) or name (str)",
             ));
         };
-        result.map_err(|e| to_py(py, e, Blame::Argument))
+        result.map_err(|e| to_py(py, e))
     }
 
     /// Advances the physics by `steps` solver steps with the current joint controls, then
@@ -337,7 +335,7 @@ impl NativeEnv {
     ) -> PyResult<Bound<'py, PyDict>> {
         let sim = self.env.simulation();
         let model = sim.model();
-        let err = |e| to_py(py, e, Blame::Argument);
+        let err = |e| to_py(py, e);
         let poses = model.link_poses(&q, sim.base_pose()).map_err(err)?;
         let dict = PyDict::new(py);
         for (link, pose) in model.links().iter().zip(&poses) {
@@ -374,7 +372,7 @@ impl NativeEnv {
                 sim.base_pose(),
                 &options,
             )
-            .map_err(|e| to_py(py, e, Blame::Argument))?;
+            .map_err(|e| to_py(py, e))?;
         let dict = PyDict::new(py);
         dict.set_item("q", solution.q)?;
         dict.set_item("position_error", solution.position_error)?;
@@ -388,9 +386,7 @@ impl NativeEnv {
     #[pyo3(signature = (name = "cube"))]
     fn object_state<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
         let sim = self.env.simulation();
-        let cube = sim
-            .object(name)
-            .map_err(|e| crate::errors::to_py(py, e, crate::errors::Blame::Argument))?;
+        let cube = sim.object(name).map_err(|e| crate::errors::to_py(py, e))?;
         let s = sim.object_state(cube);
         let q = s.orientation.coords;
         let dict = PyDict::new(py);

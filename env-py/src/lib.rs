@@ -1,14 +1,17 @@
 //! # panda-rapier-py
 //!
 //! The native module `panda_rapier._native`: thin pyo3 wrappers around `panda-rapier-core`.
-//! Everything users see (Gymnasium spaces, info dicts, stable-baselines3 adapters, exception
-//! classes) lives in the Python package beside it; this crate converts arrays and errors and
-//! releases the GIL while the physics runs. pyo3 appears nowhere else in the workspace.
+//! Everything users see (Gymnasium spaces, info dicts, stable-baselines3 adapters) lives in the
+//! Python package beside it, except the exception classes, which are created here (so core errors
+//! become them without importing Python code) and re-exported by `panda_rapier.errors`. This
+//! crate converts arrays and errors and releases the GIL while the physics runs. pyo3 appears
+//! nowhere else in the workspace.
 
 use pyo3::prelude::*;
 
 mod convert;
 mod env;
+mod error_class;
 mod errors;
 mod policy;
 mod render;
@@ -37,7 +40,7 @@ fn schema<'py>(py: Python<'py>, config_json: &str) -> PyResult<Bound<'py, pyo3::
         let action_dim = panda_rapier_core::Controller::action_dim(config.control_mode, &robot);
         Ok((layout, action_dim))
     })?
-    .map_err(|e| errors::to_py(py, e, errors::Blame::Config))?;
+    .map_err(|e| errors::to_py(py, e))?;
     let dict = PyDict::new(py);
     dict.set_item("task", config.task.as_str())?;
     dict.set_item("goal_dim", layout.goal_dim())?;
@@ -87,7 +90,7 @@ fn tutorial_fidelity<'py>(
         let plan = TutorialSequence::for_scene(&sim);
         run(&mut sim, &plan)
     })?
-    .map_err(|e| errors::to_py(py, e, errors::Blame::Config))?;
+    .map_err(|e| errors::to_py(py, e))?;
     let dict = pyo3::types::PyDict::new(py);
     dict.set_item("lift_m", report.lift)?;
     dict.set_item("carry_distance_m", report.carry_distance)?;
@@ -106,6 +109,7 @@ fn tutorial_fidelity<'py>(
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    errors::add_classes(m)?;
     m.add_function(wrap_pyfunction!(default_config_json, m)?)?;
     m.add_function(wrap_pyfunction!(schema, m)?)?;
     m.add_function(wrap_pyfunction!(tutorial_fidelity, m)?)?;

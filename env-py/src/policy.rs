@@ -7,7 +7,7 @@ use pyo3::prelude::*;
 
 use crate::convert::contiguous;
 use crate::env::parse_config;
-use crate::errors::{detached, invalid, to_py, Blame};
+use crate::errors::{detached, invalid, to_py, ErrorClass};
 
 /// The scripted controller for one environment configuration.
 #[pyclass(module = "panda_rapier._native", name = "NativeScriptedPolicy")]
@@ -25,7 +25,7 @@ impl NativeScriptedPolicy {
         if shape[1] != self.policy.observation_dim() {
             return Err(invalid(
                 py,
-                "InvalidArgumentError",
+                ErrorClass::InvalidArgument,
                 format!(
                     "observations must have shape (n, {}), got {shape:?}",
                     self.policy.observation_dim()
@@ -41,8 +41,7 @@ impl NativeScriptedPolicy {
     #[new]
     fn new(py: Python<'_>, config_json: &str) -> PyResult<Self> {
         let config = parse_config(py, config_json)?;
-        let policy = detached(py, || ScriptedPolicy::new(&config))?
-            .map_err(|e| to_py(py, e, Blame::Config))?;
+        let policy = detached(py, || ScriptedPolicy::new(&config))?.map_err(|e| to_py(py, e))?;
         Ok(Self { policy })
     }
 
@@ -66,8 +65,7 @@ impl NativeScriptedPolicy {
         let n = rows.len() / self.policy.observation_dim().max(1);
         let mut actions = vec![0.0f32; n * self.policy.action_dim()];
         let policy = &mut self.policy;
-        detached(py, || policy.act_batch(rows, &mut actions))?
-            .map_err(|e| to_py(py, e, Blame::Argument))?;
+        detached(py, || policy.act_batch(rows, &mut actions))?.map_err(|e| to_py(py, e))?;
         PyArray1::from_vec(py, actions).reshape([n, self.policy.action_dim()])
     }
 
@@ -83,7 +81,7 @@ impl NativeScriptedPolicy {
                 self.policy
                     .decide(row)
                     .map(|d| d.phase.as_str())
-                    .map_err(|e| to_py(py, e, Blame::Argument))
+                    .map_err(|e| to_py(py, e))
             })
             .collect()
     }

@@ -8,7 +8,7 @@ use panda_rapier_render::{RenderConfig, Renderer};
 use pyo3::prelude::*;
 
 use crate::env::NativeEnv;
-use crate::errors::{detached, to_py, Blame};
+use crate::errors::{detached, to_py};
 use crate::vector::NativeVecEnv;
 
 /// A renderer with its own frame buffers (size and camera fixed at construction).
@@ -32,7 +32,6 @@ impl NativeRenderer {
                     field: "render".into(),
                     reason: e.to_string(),
                 },
-                Blame::Config,
             )
         })?;
         Ok(array.into_pyarray(py))
@@ -45,7 +44,7 @@ impl NativeRenderer {
     fn new(py: Python<'_>, config_json: &str) -> PyResult<Self> {
         let renderer = RenderConfig::from_json(config_json)
             .and_then(Renderer::new)
-            .map_err(|e| to_py(py, e, Blame::Config))?;
+            .map_err(|e| to_py(py, e))?;
         Ok(Self { renderer })
     }
 
@@ -80,10 +79,7 @@ impl NativeRenderer {
         envs: PyRef<'py, NativeVecEnv>,
         index: usize,
     ) -> PyResult<Bound<'py, PyArray3<u8>>> {
-        let env = envs
-            .vec
-            .env(index)
-            .map_err(|e| to_py(py, e, Blame::Argument))?;
+        let env = envs.vec.env(index).map_err(|e| to_py(py, e))?;
         self.draw(py, env)
     }
 }

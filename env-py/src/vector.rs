@@ -8,7 +8,7 @@ use pyo3::types::PyDict;
 
 use crate::convert::{compute_reward, contiguous, info_columns, info_dicts, ContextColumns};
 use crate::env::parse_config;
-use crate::errors::{detached, invalid, to_py, Blame};
+use crate::errors::{detached, invalid, to_py, ErrorClass};
 
 /// N environments stepped in parallel.
 #[pyclass(module = "panda_rapier._native", name = "NativeVecEnv")]
@@ -47,7 +47,7 @@ impl NativeVecEnv {
             other => {
                 return Err(invalid(
                     py,
-                    "ConfigError",
+                    ErrorClass::Config,
                     format!(
                     "autoreset_mode must be 'next_step', 'same_step' or 'disabled', got {other:?}"
                 ),
@@ -55,7 +55,7 @@ impl NativeVecEnv {
             }
         };
         let vec = detached(py, || PandaVecEnv::new(config, num_envs, num_threads, mode))?
-            .map_err(|e| to_py(py, e, Blame::Config))?;
+            .map_err(|e| to_py(py, e))?;
         let actions = vec![0.0; num_envs * vec.action_dim()];
         Ok(Self { vec, actions })
     }
@@ -112,8 +112,7 @@ impl NativeVecEnv {
         };
         let seeds = seeds.unwrap_or_default();
         let vec = &mut self.vec;
-        detached(py, || vec.reset_masked(&mask, &seeds))?
-            .map_err(|e| to_py(py, e, Blame::Argument))?;
+        detached(py, || vec.reset_masked(&mask, &seeds))?.map_err(|e| to_py(py, e))?;
         self.rows(py, self.vec.observations())
     }
 
@@ -134,7 +133,7 @@ impl NativeVecEnv {
         if values.len() != self.actions.len() {
             return Err(invalid(
                 py,
-                "InvalidActionError",
+                ErrorClass::InvalidAction,
                 format!(
                     "actions must have shape ({}, {}), got {:?}",
                     self.vec.num_envs(),
@@ -145,7 +144,7 @@ impl NativeVecEnv {
         }
         self.actions.copy_from_slice(values);
         let Self { vec, actions } = self;
-        detached(py, || vec.step(actions))?.map_err(|e| to_py(py, e, Blame::Action))?;
+        detached(py, || vec.step(actions))?.map_err(|e| to_py(py, e))?;
         let rewards: Vec<f64> = self.vec.rewards().iter().map(|&r| f64::from(r)).collect();
         Ok((
             self.rows(py, self.vec.observations())?,
@@ -186,7 +185,7 @@ impl NativeVecEnv {
             }
             other => Err(invalid(
                 py,
-                "InvalidArgumentError",
+                ErrorClass::InvalidArgument,
                 format!("which must be 'step' or 'reset', got {other:?}"),
             )),
         }
@@ -204,7 +203,7 @@ impl NativeVecEnv {
             ),
             other => Err(invalid(
                 py,
-                "InvalidArgumentError",
+                ErrorClass::InvalidArgument,
                 format!("which must be 'step' or 'reset', got {other:?}"),
             )),
         }

@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+import inspect
+import json
+import pickle
+
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import panda_rapier
+import panda_rapier.errors
 from panda_rapier import (
     ConfigError,
     InvalidActionError,
@@ -23,6 +28,52 @@ def test_hierarchy() -> None:
         assert issubclass(cls, ValueError) and issubclass(cls, PandaRapierError)
     assert issubclass(panda_rapier.AssetError, PandaRapierError)
     assert issubclass(ResetNeededError, RuntimeError)
+
+
+#: Every class with its direct bases, as documented in panda_rapier.errors.
+BASES = {
+    "PandaRapierError": ("Exception",),
+    "InvalidArgumentError": ("PandaRapierError", "ValueError"),
+    "InvalidActionError": ("InvalidArgumentError",),
+    "ConfigError": ("InvalidArgumentError",),
+    "AssetError": ("PandaRapierError", "OSError"),
+    "ResetNeededError": ("PandaRapierError", "RuntimeError"),
+    "DisplayError": ("PandaRapierError", "RuntimeError"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BASES))
+def test_classes_come_from_the_native_module(name: str) -> None:
+    cls = getattr(panda_rapier.errors, name)
+    assert cls is getattr(panda_rapier._native, name) is getattr(panda_rapier, name)
+    assert name in panda_rapier.errors.__all__
+    assert tuple(base.__name__ for base in cls.__bases__) == BASES[name]
+    assert (cls.__module__, cls.__qualname__) == ("panda_rapier.errors", name)
+    assert inspect.getdoc(cls) and inspect.getdoc(cls) != inspect.getdoc(Exception)
+    error = cls("message")
+    assert isinstance(error, panda_rapier.PandaRapierError) and str(error) == "message"
+    copy = pickle.loads(pickle.dumps(error))
+    assert type(copy) is cls and copy.args == ("message",)
+
+
+def test_native_errors_are_instances_of_the_classes() -> None:
+    with pytest.raises(ConfigError) as raised:
+        PickAndPlaceEnv(max_episode_steps=0)
+    assert type(raised.value) is ConfigError
+    assert isinstance(raised.value, ValueError)
+    copy = pickle.loads(pickle.dumps(raised.value))
+    assert type(copy) is ConfigError and str(copy) == str(raised.value)
+    env = PickAndPlaceEnv()
+    with pytest.raises(ResetNeededError) as reset_needed:
+        env._native.step(np.zeros(4, np.float32))
+    assert type(reset_needed.value) is ResetNeededError
+    env.reset(seed=0)
+    with pytest.raises(InvalidActionError):
+        env._native.step(np.array([0.0, np.nan, 0.0, 0.0], np.float32))
+    for options in ({"goal": [0.5, 0.0]}, {"joint_positions": [0.0] * 3}):
+        with pytest.raises(InvalidArgumentError, match="reset option") as bad_option:
+            env._native.reset(0, json.dumps(options))
+        assert type(bad_option.value) is InvalidArgumentError
 
 
 @pytest.mark.parametrize(

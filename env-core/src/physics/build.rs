@@ -221,7 +221,7 @@ impl Simulation {
         }
 
         let controls = vec![JointControl::position(0.0); model.num_dofs()];
-        let q0 = home_configuration(&config, &model);
+        let q0 = home_configuration(&config, &model)?;
         let mut sim = Self {
             config,
             scene,

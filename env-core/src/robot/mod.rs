@@ -208,19 +208,31 @@ pub(crate) fn base_pose(config: &SimConfig) -> Isometry3<f64> {
 }
 
 /// The configuration a fresh world is set to: `initial_configuration`, the Panda's ready pose,
-/// or zeros (unclamped, unrounded).
-pub(crate) fn home_configuration(config: &SimConfig, model: &RobotModel) -> Vec<f64> {
-    match &config.initial_configuration {
+/// or zeros (unclamped, unrounded); an `initial_configuration` of the wrong length is a
+/// configuration error.
+pub(crate) fn home_configuration(config: &SimConfig, model: &RobotModel) -> Result<Vec<f64>> {
+    let q = match &config.initial_configuration {
         Some(q) => q.clone(),
         None if panda::is_panda(model) => panda::READY.to_vec(),
         None => vec![0.0; model.num_dofs()],
+    };
+    if q.len() != model.num_dofs() {
+        return Err(Error::InvalidConfig {
+            field: "initial_configuration".into(),
+            reason: format!(
+                "must have {} values (one per actuated joint), got {}",
+                model.num_dofs(),
+                q.len()
+            ),
+        });
     }
+    Ok(q)
 }
 
 /// [`Robot::start_configuration`]: the home configuration as a world built from `config`
 /// reports it.
 fn start_configuration(config: &SimConfig, model: &RobotModel) -> Result<Vec<f64>> {
-    let mut q = home_configuration(config, model);
+    let mut q = home_configuration(config, model)?;
     model.validate_configuration(&q)?;
     model.clamp_configuration(&mut q);
     let gripper = Gripper::of(model).map(|g| g.dof);

@@ -34,7 +34,26 @@ pub struct ResetOptions {
 }
 
 impl ResetOptions {
+    /// Fails with [`Error::InvalidOption`] naming the first bad value.
     fn validate(&self, num_dofs: usize) -> Result<()> {
+        self.check_values(num_dofs).map_err(|e| match e {
+            Error::NonFinite { what, value } => Error::InvalidOption {
+                what,
+                reason: format!("must be finite, got {value}"),
+            },
+            Error::WrongLength {
+                what,
+                expected,
+                got,
+            } => Error::InvalidOption {
+                what,
+                reason: format!("must have {expected} values, got {got}"),
+            },
+            other => other,
+        })
+    }
+
+    fn check_values(&self, num_dofs: usize) -> Result<()> {
         let check = |what: &str, values: &[f64]| crate::error::ensure_all_finite(what, values);
         if let Some(p) = &self.cube_position {
             check("options.cube_position", p)?;
@@ -451,9 +470,9 @@ impl PandaEnv {
         if !self.write_observation() {
             // Only a start pose the user chose can do this (e.g. overlapping bodies).
             self.status = Status::Unstable;
-            return Err(Error::InvalidConfig {
-                field: "options".into(),
-                reason: "the start state is not finite".into(),
+            return Err(Error::InvalidOption {
+                what: "options".into(),
+                reason: "give a start state that is not finite".into(),
             });
         }
         let opening = self.robot.gripper_opening(self.sim.gripper_width());
@@ -461,13 +480,23 @@ impl PandaEnv {
         Ok(())
     }
 
-    /// Checks an action: its length and that every value is finite.
+    /// Checks an action: its length and that every value is finite; fails with
+    /// [`Error::InvalidAction`].
     pub fn check_action(&self, action: &[f32]) -> Result<()> {
-        ensure_len("action", self.action_dim(), action.len())?;
+        if action.len() != self.action_dim() {
+            return Err(Error::InvalidAction {
+                what: "action".into(),
+                reason: format!(
+                    "must have {} values, got {}",
+                    self.action_dim(),
+                    action.len()
+                ),
+            });
+        }
         if let Some((i, &v)) = action.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-            return Err(Error::NonFinite {
+            return Err(Error::InvalidAction {
                 what: format!("action[{i}]"),
-                value: v as f64,
+                reason: format!("must be finite, got {v}"),
             });
         }
         Ok(())

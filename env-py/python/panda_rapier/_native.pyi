@@ -5,7 +5,35 @@ from typing import Any, final
 import numpy as np
 import numpy.typing as npt
 
+__all__ = [
+    "AssetError",
+    "ConfigError",
+    "DisplayError",
+    "EnvState",
+    "InvalidActionError",
+    "InvalidArgumentError",
+    "NativeEnv",
+    "NativeRenderer",
+    "NativeScriptedPolicy",
+    "NativeVecEnv",
+    "PandaRapierError",
+    "ResetNeededError",
+    "__version__",
+    "default_config_json",
+    "tutorial_fidelity",
+]
+
 __version__: str
+
+# The exception classes (env-py/src/errors.rs creates them, with their docstrings, when the
+# module initialises); panda_rapier.errors re-exports them and is their __module__.
+class PandaRapierError(Exception): ...
+class InvalidArgumentError(PandaRapierError, ValueError): ...
+class InvalidActionError(InvalidArgumentError): ...
+class ConfigError(InvalidArgumentError): ...
+class AssetError(PandaRapierError, OSError): ...
+class ResetNeededError(PandaRapierError, RuntimeError): ...
+class DisplayError(PandaRapierError, RuntimeError): ...
 
 def default_config_json() -> str: ...
 def schema(config_json: str) -> dict[str, Any]: ...

@@ -116,11 +116,18 @@ def _noop() -> None:
     pass
 
 
+def _shape(space: gym.Space[Any]) -> tuple[int, ...]:
+    """The shape of a Box action space."""
+    if space.shape is None:
+        raise TypeError(f"expected a Box action space, got {space}")
+    return space.shape
+
+
 def _single_env_case(env_id: str, policy: str, steps: int, config: dict[str, Any]) -> BenchCase:
     env = gym.make(env_id, **config)
     obs, _ = env.reset(seed=0)
     scripted = ScriptedPolicy(env) if policy == "scripted" else None
-    actions = np.random.default_rng(0).uniform(-1, 1, (steps, *env.action_space.shape))
+    actions = np.random.default_rng(0).uniform(-1, 1, (steps, *_shape(env.action_space)))
     actions = actions.astype(np.float32)
     state = {"obs": obs}
 
@@ -131,7 +138,7 @@ def _single_env_case(env_id: str, policy: str, steps: int, config: dict[str, Any
             obs, _ = env.reset()
         state["obs"] = obs
 
-    dt = float(env.unwrapped.dt)
+    dt = float(env.get_wrapper_attr("dt"))
     return BenchCase("gym.make", policy, 1, dt, lambda n: _timed(step, n), close=env.close)
 
 
@@ -144,7 +151,7 @@ def _vector_case(
     obs, _ = envs.reset(seed=0)
     scripted = ScriptedPolicy(envs) if policy == "scripted" else None
     rng = np.random.default_rng(0)
-    actions = rng.uniform(-1, 1, (64, *envs.action_space.shape)).astype(np.float32)
+    actions = rng.uniform(-1, 1, (64, *_shape(envs.action_space))).astype(np.float32)
     state = {"obs": obs}
     episodes = {"ended": 0, "placed": 0}
 
@@ -177,8 +184,8 @@ def _sb3_case(
     obs = venv.reset()
     scripted = ScriptedPolicy(venv) if policy == "scripted" else None
     rng = np.random.default_rng(0)
-    actions = rng.uniform(-1, 1, (64, num_envs, *venv.action_space.shape)).astype(np.float32)
-    state = {"obs": obs}
+    actions = rng.uniform(-1, 1, (64, num_envs, *_shape(venv.action_space))).astype(np.float32)
+    state: dict[str, Any] = {"obs": obs}
 
     def step(k: int) -> None:
         action = scripted.predict(state["obs"])[0] if scripted else actions[k % len(actions)]
@@ -215,7 +222,7 @@ def _peer_case(label: str, how: str, num_envs: int) -> BenchCase | None:
                 env.reset(seed=0)
             dt = float(getattr(env.unwrapped, "dt", 0.04))
 
-            def step(_: int) -> None:
+            def step(k: int) -> None:
                 _, _, terminated, truncated, _ = env.step(env.action_space.sample())
                 if terminated or truncated:
                     env.reset()
@@ -334,7 +341,9 @@ def run_benchmark(
     missing += [
         label for label, _ in (available_peers() if peers else []) if label not in made_peers
     ]
-    fidelity = dict(tutorial_fidelity(_common.config_json(env_config(env_id, **config))))
+    fidelity: dict[str, float | bool | None] = dict(
+        tutorial_fidelity(_common.config_json(env_config(env_id, **config)))
+    )
     ended = sum(case.episodes["ended"] for case in cases)
     placed = sum(case.episodes["placed"] for case in cases)
     fidelity["scripted_episodes_ended"] = ended

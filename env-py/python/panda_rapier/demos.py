@@ -172,7 +172,9 @@ def record(
     env = gym.make(env_id, **dict(env_kwargs or {}))
     expert = ScriptedPolicy(env)
     generator = np.random.default_rng(first_seed)
-    low, high = env.action_space.low, env.action_space.high
+    space = env.action_space
+    assert isinstance(space, gym.spaces.Box), space  # ScriptedPolicy(env) accepted it
+    low, high = space.low, space.high
 
     def act(obs: Mapping[str, np.ndarray]) -> np.ndarray:
         action = expert.predict(obs)[0]

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
@@ -116,7 +116,11 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
         # gym.make keeps time with a TimeLimit wrapper; the env counts only when asked to.
         config.setdefault("max_episode_steps", None)
         self._bind_native(NativeEnv(_common.config_json(config), 0))
-        self.observation_space = _common.observation_space(self._schema)
+        # gymnasium types a Dict space's elements as dict[str, Space], not the observations.
+        self.observation_space = cast(
+            "gym.spaces.Space[dict[str, np.ndarray]]",
+            _common.observation_space(self._schema),
+        )
         self.action_space = _common.action_space(self._native.action_dim)
         self._action_shape = (int(self._native.action_dim),)
         self.metadata = {**type(self).metadata, "render_fps": round(1.0 / self._native.dt)}
@@ -162,7 +166,7 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
         """Returns to a state from :meth:`save_state`; stepping on continues bit-identically."""
         self._native.restore_state(state)
 
-    def render(self) -> np.ndarray | None:  # type: ignore[override]
+    def render(self) -> np.ndarray | None:
         """The current state as an HxWx3 uint8 frame (``rgb_array``), or shown in the window
         (``human``, returns None). The same state always gives the same bytes."""
         if self.render_mode is None or self._frames is None:
@@ -173,6 +177,7 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
         return self._frames.output(self._frames.renderer.render_env(self._native))
 
     def close(self) -> None:
-        if getattr(self, "_frames", None) is not None:
-            self._frames.close()
+        frames = getattr(self, "_frames", None)  # None, or absent if __init__ raised early
+        if frames is not None:
+            frames.close()
         self._native = _common.Closed("environment")

@@ -202,8 +202,11 @@ def load_sb3_model(path: str | Path, env: Any = None, algo: str | None = None) -
             f"cannot tell which algorithm saved {path}; pass one of {SB3_ALGORITHMS}"
         )
     try:
+        algorithm: Any
         if algo == "tqc":
-            from sb3_contrib import TQC as algorithm
+            from sb3_contrib import TQC
+
+            algorithm = TQC
         else:
             import stable_baselines3
 
@@ -251,7 +254,7 @@ def evaluate(
     num_envs: int = 32,
     first_seed: int = 0,
     num_threads: int | None = None,
-    progress: Callable[[int], None] | None = None,
+    progress: Callable[[int], object] | None = None,
     recorder: VideoRecorder | None = None,
     on_step: StepHook | None = None,
 ) -> EvaluationReport:
@@ -323,10 +326,10 @@ def evaluate(
                     physics_unstable=bool(info["physics_unstable"][i]),
                 )
             if next_episode < episodes:
-                running[i], next_episode = next_episode, next_episode + 1
+                running[i], seeds[i] = next_episode, seed + next_episode
+                next_episode += 1
             else:
-                running[i] = None
-            seeds[i] = seed + running[i] if running[i] is not None else None
+                running[i] = seeds[i] = None
             returns[i], lengths[i], placed[i], first_success[i] = 0.0, 0, False, None
         observations = envs.reset(seeds, ended)
         if recorder is not None and ended[0] and running[0] is not None:

@@ -50,11 +50,15 @@ class NormalizedFlatten(BaseFeaturesExtractor):
     maps each entry to ``clip((x - mean) / scale, -10, 10)``. Until :meth:`fit` is called the
     map is the identity."""
 
+    # Buffers (registered in __init__): saved with the policy and moved with it to a device.
+    mean: th.Tensor
+    scale: th.Tensor
+
     def __init__(self, observation_space: gym.spaces.Dict, clip: float = CLIP) -> None:
         if not isinstance(observation_space, gym.spaces.Dict):
             raise TypeError(f"NormalizedFlatten needs a Dict space, got {observation_space}")
         keys = sorted(observation_space.spaces)
-        dim = sum(int(np.prod(observation_space.spaces[k].shape)) for k in keys)
+        dim = sum(gym.spaces.flatdim(observation_space.spaces[k]) for k in keys)
         super().__init__(observation_space, features_dim=dim)
         self.keys = keys
         self.clip = float(clip)
@@ -73,7 +77,7 @@ class NormalizedFlatten(BaseFeaturesExtractor):
         scale = np.maximum(flat.std(axis=0), min_scale)
         self.scale.copy_(th.as_tensor(scale, dtype=th.float32))
 
-    def forward(self, observations: Mapping[str, th.Tensor]) -> th.Tensor:  # type: ignore[override]
+    def forward(self, observations: Mapping[str, th.Tensor]) -> th.Tensor:
         flat = th.cat([observations[k].flatten(start_dim=1) for k in self.keys], dim=1)
         return ((flat - self.mean) / self.scale).clamp(-self.clip, self.clip)
 

@@ -310,9 +310,9 @@ class _Recorder:
             f"[{env_steps:>10,} steps, {wall / 60:6.1f} min] validation success "
             f"{line['success_rate']:.3f} ({low:.3f}-{high:.3f}), placed {line['placed_rate']:.3f}"
         )
-        key = (line["placed_rate"], line["success_rate"])
-        if self.best is None or key > self.best:
-            self.best = key
+        score = (line["placed_rate"], line["success_rate"])
+        if self.best is None or score > self.best:
+            self.best = score
             best = {**self.run, "evaluation": line}
             best.update(env_steps=line["env_steps"], wall_time_s=line["wall_time_s"])
             save_model(model, self.out / "best.zip", best)

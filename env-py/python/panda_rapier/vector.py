@@ -214,6 +214,7 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
         return self._frames.output(tile(frames))
 
     def close_extras(self, **kwargs: Any) -> None:
-        if getattr(self, "_frames", None) is not None:
-            self._frames.close()
+        frames = getattr(self, "_frames", None)  # None, or absent if __init__ raised early
+        if frames is not None:
+            frames.close()
         self._native = _common.Closed("vector environment")
