@@ -152,7 +152,9 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
                 )
             mask = np.ascontiguousarray(mask)
         flat = self._native.reset(seeds, mask)
-        return _common.split_observation(flat, self._schema), self._with_masks(self._native.infos("step"))
+        return _common.split_observation(flat, self._schema), self._with_masks(
+            self._native.infos("step")
+        )
 
     def step(
         self, actions: Any
