@@ -11,17 +11,18 @@
 
 pub mod config;
 pub mod env;
+pub mod episode;
 pub mod observation;
 pub mod pick_and_place;
 pub mod reward;
 
-use nalgebra::{UnitQuaternion, Vector3};
 use rand_chacha::ChaCha8Rng;
 
 pub use config::{
     ControlMode, EnvConfig, Randomization, Region, RewardType, TaskKind, TaskThresholds,
 };
-pub use env::{env_rng, EnvSnapshot, PandaEnv, ResetOptions, StepInfo, Transition};
+pub use env::{env_rng, EnvSnapshot, PandaEnv};
+pub use episode::{EpisodeStart, ObjectStart, ResetOptions, StepInfo, Transition};
 pub use observation::{
     InfoField, InfoType, InfoValue, ObservationLayout, Slot, SlotSpec, INFO_FIELDS,
     REWARD_CONTEXT_KEYS,
@@ -30,32 +31,8 @@ pub use pick_and_place::PickAndPlace;
 pub use reward::{RewardContext, RewardFunction, RewardTerms, RewardWeights};
 
 use crate::error::Result;
-use crate::physics::{BodyState, ObjectId, Scene, Simulation};
+use crate::physics::{BodyState, Scene, Simulation};
 use crate::robot::Robot;
-
-/// How one object starts an episode.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ObjectStart {
-    /// The object.
-    pub object: ObjectId,
-    /// Position of its centre (m).
-    pub position: Vector3<f64>,
-    /// Orientation.
-    pub orientation: UnitQuaternion<f64>,
-    /// Edge length (m), mass (kg) and friction for this episode, when randomised.
-    pub properties: Option<(f64, f64, f64)>,
-}
-
-/// How an episode starts: where the objects go and the goal. A task fills it in
-/// [`Task::draw_episode`]; the environment applies it (properties, then the robot, then object
-/// poses). Kept between resets, so resetting does not allocate.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct EpisodeStart {
-    /// The objects to place.
-    pub objects: Vec<ObjectStart>,
-    /// The goal (the task's `goal_dim` entries).
-    pub goal: Vec<f64>,
-}
 
 /// What the task says about the current state.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
