@@ -153,7 +153,7 @@ impl Simulation {
         }
     }
 
-    /// Sets how joint `index` (an index into [`RobotModel::joints`]) is driven from now on.
+    /// Sets how joint `index` (an index into [`crate::RobotModel::joints`]) is driven from now on.
     pub fn set_joint_control(&mut self, index: usize, control: JointControl) -> Result<()> {
         let dof = self.actuated_dof(index)?;
         control.validate(&self.model.joints()[index].name)?;

@@ -36,7 +36,7 @@ impl BodyState {
 /// State and physical properties of one robot link.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LinkState {
-    /// Link index (as in [`RobotModel::links`]).
+    /// Link index (as in [`crate::RobotModel::links`]).
     pub index: usize,
     /// Link name.
     pub name: String,
@@ -227,7 +227,7 @@ impl Simulation {
         }
     }
 
-    /// States of all links, in [`RobotModel::links`] order.
+    /// States of all links, in [`crate::RobotModel::links`] order.
     pub fn link_states(&self) -> Vec<LinkState> {
         (0..self.model.links().len())
             .map(|i| self.link_state_at(i))

@@ -59,7 +59,7 @@ pub enum VisualTag {
         /// The object's index.
         index: usize,
     },
-    /// A robot link (index into [`RobotModel::links`]).
+    /// A robot link (index into [`crate::RobotModel::links`]).
     RobotLink {
         /// Link index.
         link: usize,
