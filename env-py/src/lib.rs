@@ -10,6 +10,7 @@ use pyo3::prelude::*;
 mod convert;
 mod env;
 mod errors;
+mod evaluation;
 mod policy;
 mod render;
 mod vector;
@@ -56,10 +57,12 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(default_config_json, m)?)?;
     m.add_function(wrap_pyfunction!(tutorial_fidelity, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluation::evaluate_scripted, m)?)?;
     m.add_class::<env::NativeEnv>()?;
     m.add_class::<env::NativeSnapshot>()?;
     m.add_class::<vector::NativeVecEnv>()?;
     m.add_class::<policy::NativeScriptedPolicy>()?;
+    m.add_class::<evaluation::NativeEvaluation>()?;
     m.add_class::<render::NativeRenderer>()?;
     Ok(())
 }
