@@ -13,6 +13,7 @@ mod convert;
 mod env;
 mod error_class;
 mod errors;
+mod evaluation;
 mod policy;
 mod render;
 mod vector;
@@ -113,10 +114,12 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(default_config_json, m)?)?;
     m.add_function(wrap_pyfunction!(schema, m)?)?;
     m.add_function(wrap_pyfunction!(tutorial_fidelity, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluation::evaluate_scripted, m)?)?;
     m.add_class::<env::NativeEnv>()?;
     m.add_class::<env::NativeSnapshot>()?;
     m.add_class::<vector::NativeVecEnv>()?;
     m.add_class::<policy::NativeScriptedPolicy>()?;
+    m.add_class::<evaluation::NativeEvaluation>()?;
     m.add_class::<render::NativeRenderer>()?;
     Ok(())
 }

@@ -1,5 +1,5 @@
 //! `NativeRenderer`: the CPU renderer, drawing a `NativeEnv` or one environment of a
-//! `NativeVecEnv` into an HxWx3 uint8 array.
+//! `NativeVecEnv` or of a `NativeEvaluation` into an HxWx3 uint8 array.
 
 use numpy::ndarray::Array3;
 use numpy::{IntoPyArray, PyArray3};
@@ -9,6 +9,7 @@ use pyo3::prelude::*;
 
 use crate::env::NativeEnv;
 use crate::errors::{detached, to_py};
+use crate::evaluation::NativeEvaluation;
 use crate::vector::NativeVecEnv;
 
 /// A renderer with its own frame buffers (size and camera fixed at construction).
@@ -80,6 +81,21 @@ impl NativeRenderer {
         index: usize,
     ) -> PyResult<Bound<'py, PyArray3<u8>>> {
         let env = envs.vec.env(index).map_err(|e| to_py(py, e))?;
+        self.draw(py, env)
+    }
+
+    /// Environment `index` of an evaluation's vector env as an HxWx3 uint8 array.
+    fn render_evaluation<'py>(
+        &mut self,
+        py: Python<'py>,
+        evaluation: PyRef<'py, NativeEvaluation>,
+        index: usize,
+    ) -> PyResult<Bound<'py, PyArray3<u8>>> {
+        let env = evaluation
+            .evaluation
+            .envs()
+            .env(index)
+            .map_err(|e| to_py(py, e))?;
         self.draw(py, env)
     }
 }

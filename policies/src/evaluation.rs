@@ -1,48 +1,122 @@
-//! Seeded evaluation of a policy on the vector environment.
+//! Seeded evaluation of a policy on the vector environment: the one evaluator behind
+//! [`evaluate`] (the scripted policy, from Rust), `panda_rapier.evaluation.evaluate` (any
+//! policy, from Python) and `panda-rapier eval`.
+//!
+//! # The schedule
+//!
+//! An [`Evaluation`] runs `episodes` episodes on `num_envs` environments of a [`PandaVecEnv`]
+//! (`min(num_envs, episodes)` of them). Episode `k` (`k = 0, 1, ...`) is reset with seed
+//! `first_seed + k`, and episodes are handed out in order by **refill**: episodes
+//! `0..num_envs` start together on environments `0..num_envs`; whenever episodes end, the
+//! environments they ran on start the next episodes not yet begun, in environment order. An
+//! episode ends when it terminates (success termination, unstable physics) or reaches the time
+//! limit `max_episode_steps`, which must be set.
+//!
+//! Environment `i` draws from random stream `(seed, i)`, so an episode depends on its seed and
+//! on the environment that ran it (its record's `env_index`). For a deterministic policy the
+//! records are therefore a function of `(config, first_seed, num_envs)`: bit-identical for any
+//! thread count and across runs; a different `num_envs` runs other (equally valid) episodes.
+//! Which environment runs episode `k` depends only on how the earlier episodes ended, so the
+//! first `m` records of an evaluation of `n > m` episodes are those of an evaluation of `m`.
+//!
+//! # Idle environments and the step count
+//!
+//! [`PandaVecEnv::step`] steps every row. Once every episode has been handed out, an environment
+//! whose episode ends is *idle*: it is reset without a new seed (continuing its random stream)
+//! and stepped along with the others, with whatever actions the policy gives it, until the last
+//! episode ends; nothing it does is recorded. [`EvaluationReport::env_steps`] counts every
+//! environment step simulated, idle ones included (the work a throughput figure divides by),
+//! and [`EvaluationReport::idle_env_steps`] the idle ones among them: the recorded episodes'
+//! lengths add up to the difference.
+//!
+//! # Driving it
+//!
+//! ```text
+//! let mut evaluation = Evaluation::new(&config, episodes, num_envs, None, first_seed)?;
+//! while !evaluation.is_done() {
+//!     policy.act_batch(evaluation.observations(), &mut actions)?;
+//!     evaluation.step(&actions)?;   // records the episodes that ended
+//!     evaluation.refill()?;         // starts the next ones on the freed environments
+//! }
+//! let report = evaluation.report();
+//! ```
+//!
+//! Stepping and refilling are separate calls so that a caller can look at the environments
+//! between them (a video of environment 0 shows the last state of each episode).
 
 use panda_rapier_core::task::EnvConfig;
-use panda_rapier_core::{AutoresetMode, PandaVecEnv, Result};
+use panda_rapier_core::{AutoresetMode, Error, PandaVecEnv, Result};
 
 use crate::ScriptedPolicy;
 
-/// How one episode ended.
+/// How one episode went.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EpisodeOutcome {
-    /// The seed of the episode...
+pub struct EpisodeRecord {
+    /// The seed of the episode (`first_seed + k` for episode `k`)...
     pub seed: u64,
-    /// ...and the random stream (environment index) it ran on: the episode is that of
+    /// ...and the environment (random stream) it ran on: the episode is that of
     /// `PandaEnv::with_index(config, env_index)` reset with `seed`.
     pub env_index: u64,
-    /// Steps until `is_placed` first held, if it did.
-    pub steps_to_placed: Option<u32>,
-    /// Steps until `is_success` first held, if it did.
-    pub steps_to_success: Option<u32>,
-    /// `is_success` at the last step.
-    pub final_success: bool,
-    /// Sum of rewards.
+    /// Sum of the rewards (each an `f32`, summed in `f64`).
     pub episode_return: f64,
     /// Steps taken.
     pub length: u32,
+    /// `is_success` at the last step (Gymnasium-Robotics' success criterion).
+    pub success: bool,
+    /// First step (1-based) at which `is_success` held, if it did.
+    pub steps_to_success: Option<u32>,
+    /// First step (1-based) at which `is_placed` held (cube released, at rest on the platform
+    /// at the goal), if it did.
+    pub steps_to_placed: Option<u32>,
+    /// The episode ended because the physics became unstable (`physics_unstable` at the last
+    /// step).
+    pub physics_unstable: bool,
 }
 
-/// Outcomes of an evaluation, in seed order.
+impl EpisodeRecord {
+    fn start(seed: u64, env_index: usize) -> Self {
+        Self {
+            seed,
+            env_index: env_index as u64,
+            episode_return: 0.0,
+            length: 0,
+            success: false,
+            steps_to_success: None,
+            steps_to_placed: None,
+            physics_unstable: false,
+        }
+    }
+
+    /// Whether `is_placed` held at some step.
+    pub fn placed(&self) -> bool {
+        self.steps_to_placed.is_some()
+    }
+}
+
+/// The records of an evaluation, in episode (seed) order, and what it cost.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct EvaluationReport {
-    /// One entry per episode.
-    pub episodes: Vec<EpisodeOutcome>,
-    /// Environment steps taken in all.
+    /// The seed of episode 0.
+    pub first_seed: u64,
+    /// Environments used (the number asked for, at most the number of episodes).
+    pub num_envs: usize,
+    /// One record per episode; episode `k` (seed `first_seed + k`) at index `k`.
+    pub episodes: Vec<EpisodeRecord>,
+    /// Environment steps simulated, idle environments' included.
     pub env_steps: u64,
+    /// Steps of idle environments (with no episode left to run) among `env_steps`.
+    pub idle_env_steps: u64,
 }
 
 impl EvaluationReport {
-    /// Fraction of episodes in which the cube was placed.
+    /// Fraction of episodes in which the cube was placed at some step.
     pub fn placed_rate(&self) -> f64 {
-        self.rate(|e| e.steps_to_placed.is_some())
+        self.rate(EpisodeRecord::placed)
     }
 
     /// Fraction of episodes that ended with `is_success`.
     pub fn success_rate(&self) -> f64 {
-        self.rate(|e| e.final_success)
+        self.rate(|e| e.success)
     }
 
     /// Mean steps until the cube was placed, over the episodes where it was.
@@ -55,24 +129,278 @@ impl EvaluationReport {
         steps.iter().sum::<f64>() / steps.len().max(1) as f64
     }
 
+    /// Mean return over the episodes.
+    pub fn mean_return(&self) -> f64 {
+        let total: f64 = self.episodes.iter().map(|e| e.episode_return).sum();
+        total / self.episodes.len().max(1) as f64
+    }
+
     /// `(seed, env_index)` of the episodes where the cube was not placed.
     pub fn failed_episodes(&self) -> Vec<(u64, u64)> {
         self.episodes
             .iter()
-            .filter(|e| e.steps_to_placed.is_none())
+            .filter(|e| !e.placed())
             .map(|e| (e.seed, e.env_index))
             .collect()
     }
 
-    fn rate(&self, f: impl Fn(&EpisodeOutcome) -> bool) -> f64 {
+    fn rate(&self, f: impl Fn(&EpisodeRecord) -> bool) -> f64 {
         self.episodes.iter().filter(|e| f(e)).count() as f64 / self.episodes.len().max(1) as f64
     }
 }
 
-/// Runs `episodes` episodes (episode `k` seeded with `first_seed + k`) of `config` with the
-/// scripted policy, `num_envs` at a time on `num_threads` threads. Episodes run until they end
-/// (time limit `config.max_episode_steps`, which must be set, or success termination);
-/// `progress` is told how many episodes are done after each batch.
+/// A seeded evaluation in progress: the vector environment, the refill schedule and the
+/// records (see the [module documentation](self) for the schedule). The caller supplies the
+/// actions, so any policy can be evaluated; [`evaluate`] drives it with the scripted policy.
+#[derive(Debug)]
+pub struct Evaluation {
+    envs: PandaVecEnv,
+    episodes: usize,
+    first_seed: u64,
+    /// The episode each environment runs; `None`: idle.
+    running: Vec<Option<usize>>,
+    /// The record of the episode each environment runs, filled in as it goes.
+    current: Vec<EpisodeRecord>,
+    /// Finished episodes, by episode index.
+    records: Vec<Option<EpisodeRecord>>,
+    finished: usize,
+    next_episode: usize,
+    /// Environments whose episode (recorded or idle) ended in the last step, awaiting
+    /// [`Evaluation::refill`].
+    ended: Vec<bool>,
+    refill_pending: bool,
+    /// Environments that started an episode in the last refill (all of them at first).
+    started: Vec<bool>,
+    seeds: Vec<Option<u64>>,
+    env_steps: u64,
+    idle_env_steps: u64,
+}
+
+impl Evaluation {
+    /// Builds `min(num_envs, episodes)` environments of `config` on `num_threads` threads (as
+    /// [`PandaVecEnv::new`]) and starts episodes `0..num_envs` on them. `config.max_episode_steps`
+    /// must be set, `episodes` and `num_envs` at least 1, and `first_seed + episodes - 1` must
+    /// fit in a `u64`.
+    pub fn new(
+        config: &EnvConfig,
+        episodes: usize,
+        num_envs: usize,
+        num_threads: Option<usize>,
+        first_seed: u64,
+    ) -> Result<Self> {
+        if config.max_episode_steps.is_none() {
+            return Err(Error::InvalidConfig {
+                field: "max_episode_steps".into(),
+                reason: "must be set: evaluation needs a time limit".into(),
+            });
+        }
+        for (field, value) in [("episodes", episodes), ("num_envs", num_envs)] {
+            if value == 0 {
+                return Err(Error::InvalidConfig {
+                    field: field.into(),
+                    reason: "must be >= 1, got 0".into(),
+                });
+            }
+        }
+        if first_seed.checked_add(episodes as u64 - 1).is_none() {
+            return Err(Error::InvalidConfig {
+                field: "first_seed".into(),
+                reason: format!(
+                    "{first_seed} + {episodes} episodes runs past the largest seed, 2^64 - 1"
+                ),
+            });
+        }
+        let n = num_envs.min(episodes);
+        // No autoreset: every ended environment is reset by `refill`, with its next seed; one
+        // that was not would be an error rather than a silently unseeded episode.
+        let mut envs = PandaVecEnv::new(config.clone(), n, num_threads, AutoresetMode::Disabled)?;
+        let seeds: Vec<Option<u64>> = (0..n).map(|i| Some(first_seed + i as u64)).collect();
+        envs.reset_masked(&vec![true; n], &seeds)?;
+        Ok(Self {
+            envs,
+            episodes,
+            first_seed,
+            running: (0..n).map(Some).collect(),
+            current: (0..n)
+                .map(|i| EpisodeRecord::start(first_seed + i as u64, i))
+                .collect(),
+            records: vec![None; episodes],
+            finished: 0,
+            next_episode: n,
+            ended: vec![false; n],
+            refill_pending: false,
+            started: vec![true; n],
+            seeds,
+            env_steps: 0,
+            idle_env_steps: 0,
+        })
+    }
+
+    /// Number of environments.
+    pub fn num_envs(&self) -> usize {
+        self.envs.num_envs()
+    }
+
+    /// Number of episodes the evaluation runs.
+    pub fn episodes(&self) -> usize {
+        self.episodes
+    }
+
+    /// The seed of episode 0.
+    pub fn first_seed(&self) -> u64 {
+        self.first_seed
+    }
+
+    /// The vector environment (to render or inspect an environment; stepping and resetting
+    /// are the evaluation's).
+    pub fn envs(&self) -> &PandaVecEnv {
+        &self.envs
+    }
+
+    /// The current observations, `num_envs x observation_dim`, row-major (flat layout): what
+    /// the actions of the next [`Evaluation::step`] should answer.
+    pub fn observations(&self) -> &[f32] {
+        self.envs.observations()
+    }
+
+    /// The episode each environment runs (`None`: idle, every episode has been handed out).
+    /// Updated by [`Evaluation::refill`]: between a step and the refill, an environment whose
+    /// episode just ended still shows it.
+    pub fn running(&self) -> &[Option<usize>] {
+        &self.running
+    }
+
+    /// The environments that started an episode in the last [`Evaluation::refill`] (after
+    /// [`Evaluation::new`]: all of them).
+    pub fn started(&self) -> &[bool] {
+        &self.started
+    }
+
+    /// Episodes finished so far.
+    pub fn finished(&self) -> usize {
+        self.finished
+    }
+
+    /// Whether every episode has ended.
+    pub fn is_done(&self) -> bool {
+        self.finished == self.episodes
+    }
+
+    /// Environment steps simulated so far, idle environments' included.
+    pub fn env_steps(&self) -> u64 {
+        self.env_steps
+    }
+
+    /// Steps of idle environments so far.
+    pub fn idle_env_steps(&self) -> u64 {
+        self.idle_env_steps
+    }
+
+    /// Steps every environment with its row of `actions` (`num_envs x action_dim`) and
+    /// records the episodes that ended; returns how many did. Their environments keep their
+    /// last state until [`Evaluation::refill`], which must come before the next step. Fails
+    /// (before anything moves) on bad actions, when a refill is due, or once the evaluation
+    /// is done.
+    pub fn step(&mut self, actions: &[f32]) -> Result<usize> {
+        if self.refill_pending {
+            return Err(Error::ResetNeeded {
+                reason: "episodes ended in the last step: call refill() to start the next ones \
+                         before stepping again"
+                    .into(),
+            });
+        }
+        if self.is_done() {
+            return Err(Error::ResetNeeded {
+                reason: format!(
+                    "the evaluation is over: all {} episodes have ended",
+                    self.episodes
+                ),
+            });
+        }
+        self.envs.step(actions)?;
+        self.started.fill(false);
+        let n = self.envs.num_envs();
+        self.env_steps += n as u64;
+        let mut ended_now = 0;
+        for i in 0..n {
+            let done = self.envs.terminated()[i] || self.envs.truncated()[i];
+            self.ended[i] = done;
+            self.refill_pending |= done;
+            let Some(episode) = self.running[i] else {
+                self.idle_env_steps += 1;
+                continue;
+            };
+            let info = self.envs.info(i)?;
+            let record = &mut self.current[i];
+            record.episode_return += f64::from(self.envs.rewards()[i]);
+            record.length += 1;
+            if info.is_success && record.steps_to_success.is_none() {
+                record.steps_to_success = Some(record.length);
+            }
+            if info.is_placed && record.steps_to_placed.is_none() {
+                record.steps_to_placed = Some(record.length);
+            }
+            if done {
+                record.success = info.is_success;
+                record.physics_unstable = info.physics_unstable;
+                self.records[episode] = Some(*record);
+                self.finished += 1;
+                ended_now += 1;
+            }
+        }
+        Ok(ended_now)
+    }
+
+    /// Resets the environments whose episode ended in the last step: each starts the next
+    /// episode not yet begun (in environment order) with its seed, or, when every episode has
+    /// been handed out, becomes idle (reset without a new seed). Does nothing when no episode
+    /// ended.
+    pub fn refill(&mut self) -> Result<()> {
+        if !self.refill_pending {
+            return Ok(());
+        }
+        for i in 0..self.ended.len() {
+            self.seeds[i] = None;
+            if !self.ended[i] {
+                continue;
+            }
+            if self.next_episode < self.episodes {
+                let k = self.next_episode;
+                let seed = self.first_seed + k as u64;
+                self.running[i] = Some(k);
+                self.current[i] = EpisodeRecord::start(seed, i);
+                self.seeds[i] = Some(seed);
+                self.started[i] = true;
+                self.next_episode += 1;
+            } else {
+                self.running[i] = None;
+            }
+        }
+        self.envs.reset_masked(&self.ended, &self.seeds)?;
+        self.ended.fill(false);
+        self.refill_pending = false;
+        Ok(())
+    }
+
+    /// The report, once every episode has ended ([`Evaluation::is_done`]); `None` before.
+    pub fn report(&self) -> Option<EvaluationReport> {
+        let episodes = self.records.iter().copied().collect::<Option<Vec<_>>>()?;
+        Some(EvaluationReport {
+            first_seed: self.first_seed,
+            num_envs: self.envs.num_envs(),
+            episodes,
+            env_steps: self.env_steps,
+            idle_env_steps: self.idle_env_steps,
+        })
+    }
+}
+
+/// Evaluates the scripted policy: runs an [`Evaluation`] of `episodes` episodes of `config`
+/// (episode `k` seeded with `first_seed + k`, handed out by refill: see the
+/// [module documentation](self)) on `num_envs` environments and `num_threads` threads, acting
+/// with [`ScriptedPolicy::act_batch`] on every row. `progress` is told how many episodes have
+/// ended after every step that ends some. Gives the same records as
+/// `panda_rapier.evaluation.evaluate` (and `panda-rapier eval`) with the scripted policy.
 pub fn evaluate(
     config: &EnvConfig,
     episodes: usize,
@@ -81,70 +409,87 @@ pub fn evaluate(
     first_seed: u64,
     mut progress: impl FnMut(usize),
 ) -> Result<EvaluationReport> {
-    let limit =
-        config
-            .max_episode_steps
-            .ok_or_else(|| panda_rapier_core::Error::InvalidConfig {
-                field: "max_episode_steps".into(),
-                reason: "evaluation needs a time limit".into(),
-            })?;
     let mut policy = ScriptedPolicy::new(config)?;
-    let num_envs = num_envs.clamp(1, episodes.max(1));
-    let mut envs = PandaVecEnv::new(
-        config.clone(),
-        num_envs,
-        num_threads,
-        AutoresetMode::NextStep,
-    )?;
-    let mut report = EvaluationReport::default();
-    let mut actions = vec![0.0; num_envs * policy.action_dim()];
-    let mut start = 0;
-    while start < episodes {
-        let batch = num_envs.min(episodes - start);
-        let seeds: Vec<Option<u64>> = (0..num_envs)
-            .map(|i| Some(first_seed + (start + i) as u64))
-            .collect();
-        envs.reset_masked(&vec![true; num_envs], &seeds)?;
-        let mut outcomes: Vec<EpisodeOutcome> = (0..batch)
-            .map(|i| EpisodeOutcome {
-                seed: first_seed + (start + i) as u64,
-                env_index: i as u64,
-                steps_to_placed: None,
-                steps_to_success: None,
-                final_success: false,
-                episode_return: 0.0,
-                length: 0,
-            })
-            .collect();
-        // Rows that ended stay out of the record (an autoreset would start them afresh).
-        let mut ended = vec![false; batch];
-        for step in 1..=limit {
-            policy.act_batch(envs.observations(), &mut actions)?;
-            envs.step(&actions)?;
-            report.env_steps += batch as u64;
-            for (i, outcome) in outcomes.iter_mut().enumerate() {
-                if ended[i] {
-                    continue;
-                }
-                ended[i] = envs.terminated()[i] || envs.truncated()[i];
-                let info = envs.info(i)?;
-                outcome.episode_return += f64::from(envs.rewards()[i]);
-                outcome.length = step;
-                outcome.final_success = info.is_success;
-                if info.is_placed && outcome.steps_to_placed.is_none() {
-                    outcome.steps_to_placed = Some(step);
-                }
-                if info.is_success && outcome.steps_to_success.is_none() {
-                    outcome.steps_to_success = Some(step);
-                }
-            }
-            if ended.iter().all(|&e| e) {
-                break;
-            }
+    let mut evaluation = Evaluation::new(config, episodes, num_envs, num_threads, first_seed)?;
+    let mut actions = vec![0.0; evaluation.num_envs() * policy.action_dim()];
+    while !evaluation.is_done() {
+        policy.act_batch(evaluation.observations(), &mut actions)?;
+        if evaluation.step(&actions)? > 0 {
+            progress(evaluation.finished());
         }
-        report.episodes.extend(outcomes);
-        start += batch;
-        progress(start);
+        evaluation.refill()?;
     }
-    Ok(report)
+    evaluation.report().ok_or_else(|| Error::ResetNeeded {
+        reason: "evaluation ended with episodes unrecorded".into(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(limit: u32) -> EnvConfig {
+        EnvConfig {
+            max_episode_steps: Some(limit),
+            ..EnvConfig::default()
+        }
+    }
+
+    #[test]
+    fn refill_hands_out_every_episode_once_in_seed_order() {
+        let report = evaluate(&config(8), 7, 3, Some(1), 5, |_| {}).unwrap();
+        let seeds: Vec<u64> = report.episodes.iter().map(|e| e.seed).collect();
+        assert_eq!(seeds, (5..12).collect::<Vec<_>>());
+        // Equal lengths: episodes go round the environments in order; the last step has two
+        // idle environments.
+        let envs: Vec<u64> = report.episodes.iter().map(|e| e.env_index).collect();
+        assert_eq!(envs, [0, 1, 2, 0, 1, 2, 0]);
+        assert!(report.episodes.iter().all(|e| e.length == 8));
+        assert_eq!(report.env_steps, 3 * 3 * 8);
+        assert_eq!(report.idle_env_steps, 2 * 8);
+        let lengths: u64 = report.episodes.iter().map(|e| u64::from(e.length)).sum();
+        assert_eq!(lengths, report.env_steps - report.idle_env_steps);
+    }
+
+    #[test]
+    fn records_do_not_depend_on_the_thread_count() {
+        // Success ends episodes: unequal lengths, so refill departs from round robin.
+        let cfg = EnvConfig {
+            terminate_on_success: true,
+            ..config(60)
+        };
+        let one = evaluate(&cfg, 6, 4, Some(1), 0, |_| {}).unwrap();
+        let two = evaluate(&cfg, 6, 4, Some(2), 0, |_| {}).unwrap();
+        assert_eq!(one, two);
+        assert!(one.episodes.iter().any(|e| e.length < 60));
+    }
+
+    #[test]
+    fn the_order_of_calls_is_checked() {
+        let mut evaluation = Evaluation::new(&config(2), 1, 4, Some(1), 0).unwrap();
+        assert_eq!(evaluation.num_envs(), 1);
+        let actions = vec![0.0; evaluation.envs().action_dim()];
+        assert_eq!(evaluation.step(&actions).unwrap(), 0);
+        assert!(evaluation.report().is_none());
+        assert_eq!(evaluation.step(&actions).unwrap(), 1);
+        assert!(evaluation.step(&actions).is_err(), "refill is due");
+        evaluation.refill().unwrap();
+        assert_eq!(evaluation.running(), [None]);
+        assert!(evaluation.is_done());
+        assert!(evaluation.step(&actions).is_err(), "the evaluation is over");
+        assert_eq!(evaluation.report().unwrap().episodes.len(), 1);
+    }
+
+    #[test]
+    fn bad_arguments_are_errors() {
+        let no_limit = EnvConfig {
+            max_episode_steps: None,
+            ..EnvConfig::default()
+        };
+        assert!(Evaluation::new(&no_limit, 1, 1, Some(1), 0).is_err());
+        assert!(Evaluation::new(&config(5), 0, 1, Some(1), 0).is_err());
+        assert!(Evaluation::new(&config(5), 1, 0, Some(1), 0).is_err());
+        assert!(Evaluation::new(&config(5), 2, 1, Some(1), u64::MAX).is_err());
+        assert!(Evaluation::new(&config(5), 1, 1, Some(1), u64::MAX).is_ok());
+    }
 }

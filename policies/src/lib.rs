@@ -8,12 +8,14 @@
 //! - [`tutorial`]: the classic tutorial's open-loop pick-and-place sequence on a bare
 //!   [`panda_rapier_core::Simulation`], with slip and tracking measurements (a test of the
 //!   physics rather than a policy).
-//! - [`evaluate`]: runs a policy on seeded episodes of a [`panda_rapier_core::PandaVecEnv`] and
-//!   reports success rate, steps to success and returns.
+//! - [`Evaluation`]: seeded episodes of a [`panda_rapier_core::PandaVecEnv`] handed out by refill,
+//!   with a record per episode (return, length, success, steps to success and to placing),
+//!   driven step by step with any policy's actions; [`evaluate`] drives it with the scripted
+//!   policy. The Python package's `evaluate` and `panda-rapier eval` run the same evaluator.
 
 pub mod evaluation;
 pub mod scripted;
 pub mod tutorial;
 
-pub use evaluation::{evaluate, EpisodeOutcome, EvaluationReport};
+pub use evaluation::{evaluate, EpisodeRecord, Evaluation, EvaluationReport};
 pub use scripted::{Decision, Phase, ScriptedParams, ScriptedPolicy};

@@ -306,10 +306,11 @@ MODELS = Path(__file__).resolve().parents[2] / "models"
 def test_shipped_model_reproduces_its_recorded_evaluation(name: str) -> None:
     """Each model in models/ is evaluated (as `panda-rapier eval --policy models/NAME.zip`
     does: the environment recorded in the zip, 32 environments, seeds from 0) on its first
-    96 episodes (three full batches, so every batch is the one the recorded run had); each
-    episode's success and placement must match models/evaluations.json, which
-    `panda-rapier models-table models` wrote together with the README's table. Bit-identical
-    on the machine that wrote it; two episodes of slack for another CPU's float rounding."""
+    96 episodes (refill hands out episodes in the same order whatever their number, so these
+    are the recorded run's first 96); each episode's success and placement must match
+    models/evaluations.json, which `panda-rapier models-table models` wrote together with the
+    README's table. Bit-identical on the machine that wrote it; two episodes of slack for
+    another CPU's float rounding."""
     from panda_rapier.evaluation import load_sb3_model
 
     recorded = json.loads((MODELS / "evaluations.json").read_text())[name]

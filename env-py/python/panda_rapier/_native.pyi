@@ -38,6 +38,15 @@ class DisplayError(PandaRapierError, RuntimeError): ...
 def default_config_json() -> str: ...
 def schema(config_json: str) -> dict[str, Any]: ...
 def tutorial_fidelity(config_json: str) -> dict[str, float | bool]: ...
+def evaluate_scripted(
+    config_json: str,
+    episodes: int,
+    num_envs: int,
+    num_threads: int | None = None,
+    first_seed: int = 0,
+) -> dict[str, Any]:
+    """Runs the Rust ``panda_rapier_policies::evaluate`` (the scripted policy driving a
+    :class:`NativeEvaluation`) and returns its report as :meth:`NativeEvaluation.report` does."""
 
 _F32 = npt.NDArray[np.float32]
 _F64 = npt.NDArray[np.float64]
@@ -142,6 +151,65 @@ class NativeScriptedPolicy:
     def phases(self, observations: _F32) -> list[str]: ...
 
 @final
+class NativeEvaluation:
+    """A seeded evaluation in progress (``panda_rapier_policies::Evaluation``): a vector env,
+    the refill schedule (episode ``k`` seeded ``first_seed + k``, handed to the next free
+    environment in environment order) and one record per episode. The caller supplies the
+    actions: ``observations()``, then ``step(actions)``, then ``refill()``, until ``done``."""
+
+    def __new__(
+        cls,
+        config_json: str,
+        episodes: int,
+        num_envs: int,
+        num_threads: int | None = None,
+        first_seed: int = 0,
+    ) -> NativeEvaluation:
+        """Builds ``min(num_envs, episodes)`` environments and starts the first episodes;
+        ``max_episode_steps`` must be set (``ConfigError`` otherwise)."""
+    @property
+    def num_envs(self) -> int: ...
+    @property
+    def num_threads(self) -> int: ...
+    @property
+    def episodes(self) -> int: ...
+    @property
+    def first_seed(self) -> int: ...
+    @property
+    def action_dim(self) -> int: ...
+    @property
+    def observation_dim(self) -> int: ...
+    @property
+    def finished(self) -> int:
+        """Episodes ended so far."""
+    @property
+    def done(self) -> bool:
+        """Whether every episode has ended."""
+    @property
+    def env_steps(self) -> int:
+        """Environment steps simulated so far, idle environments' included."""
+    @property
+    def idle_env_steps(self) -> int:
+        """Steps of idle environments (no episode left to run) so far."""
+    def config_json(self) -> str:
+        """The full configuration as JSON (defaults filled in)."""
+    def observations(self) -> _F32:
+        """The current observations, ``num_envs x observation_dim`` (flat layout)."""
+    def running(self) -> list[int | None]:
+        """The episode each environment runs (``None``: idle); updated by ``refill``."""
+    def step(self, actions: _F32) -> int:
+        """Steps every environment (float32 actions, ``num_envs x action_dim``) and records
+        the episodes that ended; returns how many did. ``refill`` must come next
+        (``ResetNeededError`` otherwise, and once the evaluation is done)."""
+    def refill(self) -> _Bool:
+        """Starts the next episodes on the environments whose episode ended in the last step,
+        or leaves them idle; returns which environments started one."""
+    def report(self) -> dict[str, Any]:
+        """``first_seed``, ``num_envs``, ``env_steps``, ``idle_env_steps`` and ``episodes``
+        (one dict per episode, keyed as ``EpisodeRecord``'s fields, in episode order);
+        ``ResetNeededError`` before the evaluation is done."""
+
+@final
 class NativeRenderer:
     def __new__(cls, config_json: str) -> NativeRenderer: ...
     def config_json(self) -> str: ...
@@ -151,3 +219,6 @@ class NativeRenderer:
     def height(self) -> int: ...
     def render_env(self, env: NativeEnv) -> npt.NDArray[np.uint8]: ...
     def render_vec_env(self, envs: NativeVecEnv, index: int) -> npt.NDArray[np.uint8]: ...
+    def render_evaluation(
+        self, evaluation: NativeEvaluation, index: int
+    ) -> npt.NDArray[np.uint8]: ...

@@ -1,9 +1,19 @@
 """Seeded evaluation of a policy (the scripted baseline or a stable-baselines3 model) on the
 native vector environment: what ``panda-rapier eval`` runs.
 
-Episode ``k`` (``k = 0, 1, ...``) is reset with seed ``first_seed + k`` on whichever
-environment of the batch is free; since the environments and policies are deterministic, the
-same ``(first_seed, num_envs)`` gives the same report, bit for bit.
+The schedule and the bookkeeping are native (``panda_rapier_policies::Evaluation``, shared with
+the Rust ``evaluate``); this module supplies the policy's actions and builds the report.
+Episode ``k`` (``k = 0, 1, ...``) is reset with seed ``first_seed + k`` and episodes are
+handed out in order by refill: the first ``num_envs`` start together on environments
+``0 .. num_envs - 1``, and whenever episodes end, their environments start the next ones, in
+environment order. Environment ``i`` draws from random stream ``(seed, i)``, so an episode
+depends on its seed and on ``env_index``; since the environments and policies are
+deterministic, the same ``(config, first_seed, num_envs)`` gives the same records, bit for bit,
+for any number of threads, and the first ``m`` records of a longer evaluation are those of an
+evaluation of ``m`` episodes. Once every episode has been handed out, environments whose
+episode ends are idle: the vector env still steps them, unrecorded, until the last episode
+ends. ``env_steps`` counts every environment step simulated, idle ones included (what
+``env_steps_per_s`` divides), ``idle_env_steps`` the idle ones among them.
 """
 
 from __future__ import annotations
@@ -19,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from . import _common
-from ._native import NativeVecEnv
+from ._native import NativeEvaluation
 from .errors import ConfigError, InvalidArgumentError
 from .policy import ScriptedPolicy
 
@@ -53,6 +63,8 @@ class EpisodeRecord:
     placed: bool
     #: First step at which ``is_success`` held, if it did.
     steps_to_success: int | None
+    #: First step at which ``is_placed`` held, if it did.
+    steps_to_placed: int | None
     #: Whether the episode ended because the physics blew up.
     physics_unstable: bool
 
@@ -69,6 +81,8 @@ class EvaluationReport:
     env_steps: int
     wall_time_s: float
     episodes: list[EpisodeRecord] = field(default_factory=list)
+    #: Steps of idle environments (no episode left to run) among ``env_steps``.
+    idle_env_steps: int = 0
 
     @property
     def num_episodes(self) -> int:
@@ -139,6 +153,7 @@ class EvaluationReport:
             "median_steps_to_success": self.median_steps_to_success,
             "physics_unstable_episodes": sum(e.physics_unstable for e in self.episodes),
             "env_steps": self.env_steps,
+            "idle_env_steps": self.idle_env_steps,
             "wall_time_s": self.wall_time_s,
             "env_steps_per_s": self.env_steps_per_s,
         }
@@ -261,88 +276,58 @@ def evaluate(
     """Runs ``episodes`` seeded episodes of the environment ``config`` (its
     ``max_episode_steps`` must be set) with ``policy`` (a :class:`ScriptedPolicy`, anything
     with an SB3-style ``predict`` taking dict observations, or a function from flat observation
-    rows to action rows) on ``num_envs`` environments; ``on_step`` (a :data:`StepHook`) sees
-    every step before it is taken;
+    rows to action rows) on ``num_envs`` environments, scheduled by the native evaluation (see
+    the module docstring); ``on_step`` (a :data:`StepHook`) sees every step before it is taken;
     ``progress`` is called with the number of finished episodes after every step that ends
     some. ``recorder`` (a :class:`~panda_rapier.video.VideoRecorder`) gets every frame of the
-    episodes environment 0 runs (episodes ``0, num_envs, 2 num_envs, ...``): the first state
-    and one frame per step."""
+    episodes environment 0 runs: the first state and one frame per step."""
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
         raise InvalidArgumentError(f"episodes must be an int >= 1, got {episodes!r}")
     if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
         raise InvalidArgumentError(f"num_envs must be an int >= 1, got {num_envs!r}")
     seed = _common.as_seed(first_seed)
     assert seed is not None
+    if seed + episodes > 2**64:
+        raise InvalidArgumentError(
+            f"first_seed + episodes must not pass 2**64 (one seed per episode), got {seed} + "
+            f"{episodes}"
+        )
     config = dict(config)
     if config.get("max_episode_steps", 0) is None:
         raise ConfigError("evaluation needs a time limit: max_episode_steps must not be None")
     act, name = _actor(policy)
-    num_envs = min(num_envs, episodes)
-    envs = NativeVecEnv(_common.config_json(config), num_envs, num_threads, "next_step")
-    full_config = json.loads(envs.config_json())
+    evaluation = NativeEvaluation(
+        _common.config_json(config), episodes, min(num_envs, episodes), num_threads, seed
+    )
+    full_config = json.loads(evaluation.config_json())
 
     started = time.perf_counter()
-    observations = envs.reset([seed + i for i in range(num_envs)])
     if recorder is not None:
-        recorder.capture(envs)
-    running: list[int | None] = list(range(num_envs))
-    next_episode = num_envs
-    returns = np.zeros(num_envs)
-    lengths = np.zeros(num_envs, dtype=np.int64)
-    first_success: list[int | None] = [None] * num_envs
-    placed = np.zeros(num_envs, dtype=bool)
-    records: dict[int, EpisodeRecord] = {}
-    env_steps = 0
-    while len(records) < episodes:
+        recorder.capture(evaluation)
+    while not evaluation.done:
+        observations = evaluation.observations()
         actions = np.ascontiguousarray(act(observations), dtype=np.float32)
+        running = evaluation.running()
         if on_step is not None:
             on_step(observations, actions, running)
-        observations, rewards, terminated, truncated = envs.step(actions)
-        env_steps += num_envs
+        ended = evaluation.step(actions)
+        # Environment 0's state after the step: the last frame of an episode that just ended.
         if recorder is not None and running[0] is not None:
-            recorder.capture(envs)
-        info = envs.infos("step")
-        returns += rewards
-        lengths += 1
-        placed |= info["is_placed"]
-        for i in np.flatnonzero(info["is_success"]):
-            if first_success[i] is None:
-                first_success[i] = int(lengths[i])
-        ended = terminated | truncated
-        if not ended.any():
-            continue
-        seeds: list[int | None] = [None] * num_envs
-        for i in np.flatnonzero(ended):
-            episode = running[i]
-            if episode is not None:
-                records[episode] = EpisodeRecord(
-                    seed=seed + episode,
-                    env_index=int(i),
-                    episode_return=float(returns[i]),
-                    length=int(lengths[i]),
-                    success=bool(info["is_success"][i]),
-                    placed=bool(placed[i]),
-                    steps_to_success=first_success[i],
-                    physics_unstable=bool(info["physics_unstable"][i]),
-                )
-            if next_episode < episodes:
-                running[i], seeds[i] = next_episode, seed + next_episode
-                next_episode += 1
-            else:
-                running[i] = seeds[i] = None
-            returns[i], lengths[i], placed[i], first_success[i] = 0.0, 0, False, None
-        observations = envs.reset(seeds, ended)
-        if recorder is not None and ended[0] and running[0] is not None:
-            recorder.capture(envs)
-        if progress is not None:
-            progress(len(records))
+            recorder.capture(evaluation)
+        new_episode = evaluation.refill()
+        if recorder is not None and new_episode[0]:
+            recorder.capture(evaluation)
+        if progress is not None and ended:
+            progress(evaluation.finished)
+    native = evaluation.report()
     return EvaluationReport(
         policy=name,
         config=full_config,
         first_seed=seed,
-        num_envs=num_envs,
-        num_threads=int(envs.num_threads),
-        env_steps=env_steps,
+        num_envs=evaluation.num_envs,
+        num_threads=evaluation.num_threads,
+        env_steps=native["env_steps"],
         wall_time_s=time.perf_counter() - started,
-        episodes=[records[k] for k in range(episodes)],
+        episodes=[EpisodeRecord(**record) for record in native["episodes"]],
+        idle_env_steps=native["idle_env_steps"],
     )

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from ._native import NativeVecEnv
+from ._native import NativeEvaluation, NativeVecEnv
 from .errors import PandaRapierError
 from .rendering import DEFAULT_HEIGHT, DEFAULT_WIDTH, make_renderer
 
@@ -54,8 +54,13 @@ class VideoRecorder:
         self._writer = open_video_writer(self.path, fps)
         self.frames = 0
 
-    def capture(self, envs: NativeVecEnv, index: int = 0) -> np.ndarray:
-        frame = self._renderer.render_vec_env(envs, index)
+    def capture(self, envs: NativeVecEnv | NativeEvaluation, index: int = 0) -> np.ndarray:
+        """Appends a frame of environment ``index`` of a native vector env or of the vector
+        env of a native evaluation (what :func:`~panda_rapier.evaluation.evaluate` passes)."""
+        if isinstance(envs, NativeEvaluation):
+            frame = self._renderer.render_evaluation(envs, index)
+        else:
+            frame = self._renderer.render_vec_env(envs, index)
         self._writer.append_data(frame)
         self.frames += 1
         return frame

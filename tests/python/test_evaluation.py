@@ -1,0 +1,104 @@
+"""panda_rapier.evaluation.evaluate: one native evaluator (refill schedule, per-episode
+records) shared with the Rust ``panda_rapier_policies::evaluate``."""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+
+import numpy as np
+import pytest
+
+from panda_rapier import (
+    ConfigError,
+    InvalidArgumentError,
+    ResetNeededError,
+    ScriptedPolicy,
+    _common,
+)
+from panda_rapier._native import NativeEvaluation, evaluate_scripted
+from panda_rapier.evaluation import evaluate
+from panda_rapier.registration import env_config
+
+# Success ends an episode: lengths differ, so refill hands episodes to environments out of
+# round-robin order and environments go idle at different times.
+CONFIG = env_config("panda_rapier/PickAndPlace-v0", terminate_on_success=True)
+
+
+@pytest.mark.parametrize(("episodes", "num_envs", "first_seed"), [(40, 8, 3), (9, 4, 0)])
+def test_python_and_rust_evaluations_of_the_scripted_policy_agree(
+    episodes: int, num_envs: int, first_seed: int
+) -> None:
+    python = evaluate(
+        ScriptedPolicy(CONFIG), CONFIG, episodes, num_envs=num_envs, first_seed=first_seed
+    )
+    rust = evaluate_scripted(_common.config_json(CONFIG), episodes, num_envs, None, first_seed)
+    assert [asdict(e) for e in python.episodes] == rust["episodes"]
+    assert (python.env_steps, python.idle_env_steps) == (rust["env_steps"], rust["idle_env_steps"])
+    assert [e.seed for e in python.episodes] == list(range(first_seed, first_seed + episodes))
+    assert len({e.length for e in python.episodes}) > 1, "success termination varies lengths"
+    assert python.success_rate > 0.8
+
+
+def test_records_do_not_depend_on_threads_and_prefixes_agree() -> None:
+    policy = ScriptedPolicy(CONFIG)
+    one = evaluate(policy, CONFIG, 24, num_envs=6, num_threads=1)
+    two = evaluate(policy, CONFIG, 24, num_envs=6, num_threads=2)
+    assert one.episodes == two.episodes and one.env_steps == two.env_steps
+    shorter = evaluate(policy, CONFIG, 10, num_envs=6, num_threads=2)
+    assert shorter.episodes == one.episodes[:10]
+    # Honest step count: recorded steps plus the idle environments' steps.
+    assert sum(e.length for e in one.episodes) == one.env_steps - one.idle_env_steps
+    assert one.idle_env_steps > 0
+    assert one.summary()["idle_env_steps"] == one.idle_env_steps
+
+
+def test_refill_schedule_as_seen_by_the_step_hook() -> None:
+    seen: list[list[int | None]] = []
+
+    def hook(observations: np.ndarray, actions: np.ndarray, running: list[int | None]) -> None:
+        assert observations.shape[0] == 3
+        assert actions.shape == (3, 4)
+        seen.append(list(running))
+
+    report = evaluate(ScriptedPolicy(CONFIG), CONFIG, 7, num_envs=3, on_step=hook)
+    assert seen[0] == [0, 1, 2]
+    assert seen[-1].count(None) >= 1  # the last steps have idle environments
+    handed_out = [k for k in dict.fromkeys(e for row in seen for e in row) if k is not None]
+    assert handed_out == list(range(7)), "episodes start in order"
+    for k, record in enumerate(report.episodes):
+        steps = [row for row in seen if k in row]
+        assert len(steps) == record.length
+        assert all(row[record.env_index] == k for row in steps)
+
+
+def test_native_evaluation_checks_its_call_order() -> None:
+    config = env_config("panda_rapier/PickAndPlace-v0", max_episode_steps=2)
+    evaluation = NativeEvaluation(_common.config_json(config), 1, 4, 1, 0)
+    assert evaluation.num_envs == 1 and not evaluation.done
+    actions = np.zeros((1, evaluation.action_dim), dtype=np.float32)
+    with pytest.raises(ResetNeededError, match="not over"):
+        evaluation.report()
+    assert evaluation.step(actions) == 0
+    assert evaluation.step(actions) == 1
+    with pytest.raises(ResetNeededError, match="refill"):
+        evaluation.step(actions)
+    assert not evaluation.refill()[0]
+    assert evaluation.running() == [None] and evaluation.done
+    with pytest.raises(ResetNeededError, match="over"):
+        evaluation.step(actions)
+    report = evaluation.report()
+    assert report["env_steps"] == 2 and report["episodes"][0]["length"] == 2
+    with pytest.raises(InvalidArgumentError):
+        NativeEvaluation(_common.config_json(config), 1, 1).step(np.zeros((2, 4), np.float32))
+
+
+def test_bad_arguments() -> None:
+    policy = ScriptedPolicy(CONFIG)
+    with pytest.raises(InvalidArgumentError):
+        evaluate(policy, CONFIG, 0)
+    with pytest.raises(InvalidArgumentError):
+        evaluate(policy, CONFIG, 2, first_seed=2**64 - 1)
+    with pytest.raises(ConfigError, match="time limit"):
+        evaluate(policy, {**CONFIG, "max_episode_steps": None}, 2)
+    with pytest.raises(ConfigError, match="max_episode_steps"):
+        NativeEvaluation(_common.config_json({**CONFIG, "max_episode_steps": None}), 1, 1)
