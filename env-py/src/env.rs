@@ -1,4 +1,4 @@
-//! `NativeEnv`: one [`PandaEnv`] and its robot, for `panda_rapier.PandaEnv`.
+//! `PandaEnv`: one [`PandaEnv`] and its robot, for `panda_rapier.PandaEnv`.
 
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use panda_rapier_core::{EnvConfig, EnvSnapshot, IkOptions, JointControl, PandaEnv, ResetOptions};
@@ -15,15 +15,15 @@ pub(crate) fn parse_config(py: Python<'_>, config_json: &str) -> PyResult<EnvCon
     EnvConfig::from_json(config_json).map_err(|e| to_py(py, e))
 }
 
-/// A saved environment state (`NativeEnv.save_state`), restorable into any environment with
+/// A saved environment state (`PandaEnv.snapshot`), restorable into any environment with
 /// the same configuration.
-#[pyclass(module = "panda_rapier._native", name = "EnvState", frozen)]
+#[pyclass(module = "panda_rapier._native", name = "EnvSnapshot", frozen)]
 pub struct NativeSnapshot {
     snapshot: EnvSnapshot,
 }
 
 /// One pick-and-place environment.
-#[pyclass(module = "panda_rapier._native", name = "NativeEnv")]
+#[pyclass(module = "panda_rapier._native", name = "PandaEnv")]
 pub struct NativeEnv {
     pub(crate) env: PandaEnv,
     action: Vec<f32>,
@@ -187,15 +187,17 @@ impl NativeEnv {
     }
 
     /// Copies the whole state (physics, random stream, goal, clock).
-    fn save_state(&self) -> NativeSnapshot {
+    fn snapshot(&self) -> NativeSnapshot {
         NativeSnapshot {
             snapshot: self.env.snapshot(),
         }
     }
 
     /// Returns to a saved state; stepping on continues bit-identically.
-    fn restore_state(&mut self, py: Python<'_>, state: &NativeSnapshot) -> PyResult<()> {
-        self.env.restore(&state.snapshot).map_err(|e| to_py(py, e))
+    fn restore(&mut self, py: Python<'_>, snapshot: &NativeSnapshot) -> PyResult<()> {
+        self.env
+            .restore(&snapshot.snapshot)
+            .map_err(|e| to_py(py, e))
     }
 
     // ---- the robot ------------------------------------------------------------------------

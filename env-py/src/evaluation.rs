@@ -1,4 +1,4 @@
-//! `NativeEvaluation`: the seeded evaluation of `panda-rapier-policies` (its vector env, refill
+//! `Evaluation`: the seeded evaluation of `panda-rapier-policies` (its vector env, refill
 //! schedule and per-episode records), driven step by step by `panda_rapier.evaluation`, which
 //! supplies the actions; and `evaluate_scripted`, the Rust `evaluate` of the scripted policy.
 
@@ -12,7 +12,7 @@ use crate::env::parse_config;
 use crate::errors::{detached, invalid, to_py, ErrorClass};
 
 /// An evaluation in progress (see `panda_rapier.evaluation.evaluate`).
-#[pyclass(module = "panda_rapier._native", name = "NativeEvaluation")]
+#[pyclass(module = "panda_rapier._native", name = "Evaluation")]
 pub struct NativeEvaluation {
     pub(crate) evaluation: Evaluation,
 }
@@ -151,7 +151,7 @@ impl NativeEvaluation {
 }
 
 /// Runs the Rust `panda_rapier_policies::evaluate` (the scripted policy) and returns its report
-/// as `NativeEvaluation.report` does.
+/// as `Evaluation.report` does.
 #[pyfunction]
 #[pyo3(signature = (config_json, episodes, num_envs, num_threads = None, first_seed = 0))]
 pub(crate) fn evaluate_scripted<'py>(

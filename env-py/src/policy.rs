@@ -1,4 +1,4 @@
-//! `NativeScriptedPolicy`: the scripted pick-and-place baseline of `panda-rapier-policies`,
+//! `ScriptedPolicy`: the scripted pick-and-place baseline of `panda-rapier-policies`,
 //! acting on whole batches of flat observations in one call.
 
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
@@ -10,7 +10,7 @@ use crate::env::parse_config;
 use crate::errors::{detached, invalid, to_py, ErrorClass};
 
 /// The scripted controller for one environment configuration.
-#[pyclass(module = "panda_rapier._native", name = "NativeScriptedPolicy")]
+#[pyclass(module = "panda_rapier._native", name = "ScriptedPolicy")]
 pub struct NativeScriptedPolicy {
     policy: ScriptedPolicy,
 }

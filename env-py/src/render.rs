@@ -1,5 +1,5 @@
-//! `NativeRenderer`: the CPU renderer, drawing a `NativeEnv` or one environment of a
-//! `NativeVecEnv` or of a `NativeEvaluation` into an HxWx3 uint8 array.
+//! `Renderer`: the CPU renderer, drawing a `PandaEnv` or one environment of a
+//! `PandaVecEnv` or of a `Evaluation` into an HxWx3 uint8 array.
 
 use numpy::ndarray::Array3;
 use numpy::{IntoPyArray, PyArray3};
@@ -13,7 +13,7 @@ use crate::evaluation::NativeEvaluation;
 use crate::vector::NativeVecEnv;
 
 /// A renderer with its own frame buffers (size and camera fixed at construction).
-#[pyclass(module = "panda_rapier._native", name = "NativeRenderer")]
+#[pyclass(module = "panda_rapier._native", name = "Renderer")]
 pub struct NativeRenderer {
     renderer: Renderer,
 }

@@ -1,4 +1,4 @@
-//! `NativeVecEnv`: the core [`PandaVecEnv`] (a rayon pool stepping N environments) with batched
+//! `PandaVecEnv`: the core [`PandaVecEnv`] (a rayon pool stepping N environments) with batched
 //! numpy outputs, for the Gymnasium vector env and the stable-baselines3 `PandaVecEnv`.
 
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
@@ -11,7 +11,7 @@ use crate::env::parse_config;
 use crate::errors::{detached, invalid, to_py, ErrorClass};
 
 /// N environments stepped in parallel.
-#[pyclass(module = "panda_rapier._native", name = "NativeVecEnv")]
+#[pyclass(module = "panda_rapier._native", name = "PandaVecEnv")]
 pub struct NativeVecEnv {
     pub(crate) vec: PandaVecEnv,
     actions: Vec<f32>,

@@ -16,9 +16,9 @@ from panda_rapier import (
     ConfigError,
     InvalidActionError,
     InvalidArgumentError,
+    PandaEnv,
     PandaRapierError,
-    PickAndPlaceEnv,
-    PickAndPlaceVectorEnv,
+    PandaVectorEnv,
     ResetNeededError,
 )
 
@@ -58,12 +58,12 @@ def test_classes_come_from_the_native_module(name: str) -> None:
 
 def test_native_errors_are_instances_of_the_classes() -> None:
     with pytest.raises(ConfigError) as raised:
-        PickAndPlaceEnv(max_episode_steps=0)
+        PandaEnv(max_episode_steps=0)
     assert type(raised.value) is ConfigError
     assert isinstance(raised.value, ValueError)
     copy = pickle.loads(pickle.dumps(raised.value))
     assert type(copy) is ConfigError and str(copy) == str(raised.value)
-    env = PickAndPlaceEnv()
+    env = PandaEnv()
     with pytest.raises(ResetNeededError) as reset_needed:
         env._native.step(np.zeros(4, np.float32))
     assert type(reset_needed.value) is ResetNeededError
@@ -104,7 +104,7 @@ def test_bad_actions(action: object, match: str) -> None:
 
 
 def test_accepted_actions_other_dtypes_and_out_of_range() -> None:
-    env = PickAndPlaceEnv()
+    env = PandaEnv()
     env.reset(seed=0)
     env.step([0, 0, 0, 1])
     env.step(np.array([1e300, -1e300, 0.0, 0.0]))  # clipped, not turned into inf
@@ -114,7 +114,7 @@ def test_accepted_actions_other_dtypes_and_out_of_range() -> None:
 
 
 def test_bad_vector_actions() -> None:
-    envs = PickAndPlaceVectorEnv(2)
+    envs = PandaVectorEnv(2)
     envs.reset(seed=0)
     with pytest.raises(InvalidActionError, match=r"shape \(2, 4\)"):
         envs.step(np.zeros(4, np.float32))
@@ -140,24 +140,24 @@ def test_bad_vector_actions() -> None:
 )
 def test_bad_config(config: dict[str, object], match: str) -> None:
     with pytest.raises(ConfigError, match=match):
-        PickAndPlaceEnv(**config)
+        PandaEnv(**config)
     with pytest.raises(ConfigError, match=match):
-        PickAndPlaceVectorEnv(2, **config)
+        PandaVectorEnv(2, **config)
 
 
 def test_bad_vector_arguments() -> None:
     with pytest.raises(ConfigError, match="num_envs"):
-        PickAndPlaceVectorEnv(0)
+        PandaVectorEnv(0)
     with pytest.raises(ConfigError, match="num_threads"):
-        PickAndPlaceVectorEnv(2, num_threads=0)
+        PandaVectorEnv(2, num_threads=0)
     with pytest.raises(ConfigError, match="autoreset_mode"):
-        PickAndPlaceVectorEnv(2, autoreset_mode="sometimes")
+        PandaVectorEnv(2, autoreset_mode="sometimes")
     with pytest.raises(ConfigError, match="render_mode"):
-        PickAndPlaceEnv(render_mode="ascii")
+        PandaEnv(render_mode="ascii")
 
 
 def test_call_order() -> None:
-    env = PickAndPlaceEnv()
+    env = PandaEnv()
     with pytest.raises(ResetNeededError, match="before the first reset"):
         env.step(np.zeros(4, np.float32))
     env.reset(seed=0)
@@ -171,13 +171,13 @@ def test_call_order() -> None:
 
 @pytest.mark.parametrize("seed", [-1, 2**64, 1.5, "7", True])
 def test_bad_seeds(seed: object) -> None:
-    env = PickAndPlaceEnv()
+    env = PandaEnv()
     with pytest.raises((InvalidArgumentError, gym.error.Error, TypeError)):
         env.reset(seed=seed)  # type: ignore[arg-type]
 
 
 def test_robot_argument_errors() -> None:
-    env = PickAndPlaceEnv()
+    env = PandaEnv()
     env.reset(seed=0)
     robot = env.robot
     with pytest.raises(InvalidArgumentError, match="unknown link `nope`"):

@@ -14,8 +14,9 @@ from panda_rapier import (
     ResetNeededError,
     ScriptedPolicy,
     _common,
+    _native,
 )
-from panda_rapier._native import NativeEvaluation, evaluate_scripted
+from panda_rapier._native import evaluate_scripted
 from panda_rapier.evaluation import evaluate
 from panda_rapier.registration import env_config
 
@@ -73,7 +74,7 @@ def test_refill_schedule_as_seen_by_the_step_hook() -> None:
 
 def test_native_evaluation_checks_its_call_order() -> None:
     config = env_config("panda_rapier/PickAndPlace-v0", max_episode_steps=2)
-    evaluation = NativeEvaluation(_common.config_json(config), 1, 4, 1, 0)
+    evaluation = _native.Evaluation(_common.config_json(config), 1, 4, 1, 0)
     assert evaluation.num_envs == 1 and not evaluation.done
     actions = np.zeros((1, evaluation.action_dim), dtype=np.float32)
     with pytest.raises(ResetNeededError, match="not over"):
@@ -89,7 +90,7 @@ def test_native_evaluation_checks_its_call_order() -> None:
     report = evaluation.report()
     assert report["env_steps"] == 2 and report["episodes"][0]["length"] == 2
     with pytest.raises(InvalidArgumentError):
-        NativeEvaluation(_common.config_json(config), 1, 1).step(np.zeros((2, 4), np.float32))
+        _native.Evaluation(_common.config_json(config), 1, 1).step(np.zeros((2, 4), np.float32))
 
 
 def test_bad_arguments() -> None:
@@ -101,4 +102,4 @@ def test_bad_arguments() -> None:
     with pytest.raises(ConfigError, match="time limit"):
         evaluate(policy, {**CONFIG, "max_episode_steps": None}, 2)
     with pytest.raises(ConfigError, match="max_episode_steps"):
-        NativeEvaluation(_common.config_json({**CONFIG, "max_episode_steps": None}), 1, 1)
+        _native.Evaluation(_common.config_json({**CONFIG, "max_episode_steps": None}), 1, 1)

@@ -83,10 +83,10 @@ def test_time_limit_comes_from_gym_make() -> None:
     env.reset(seed=1)
     flags = [env.step(np.zeros(4, np.float32))[3] for _ in range(7)]
     assert flags == [False] * 6 + [True]
-    direct = panda_rapier.PickAndPlaceEnv(max_episode_steps=3)
+    direct = panda_rapier.PandaEnv(max_episode_steps=3)
     direct.reset(seed=1)
     assert [direct.step(np.zeros(4, np.float32))[3] for _ in range(3)] == [False, False, True]
-    unlimited = panda_rapier.PickAndPlaceEnv()
+    unlimited = panda_rapier.PandaEnv()
     unlimited.reset(seed=1)
     assert not any(unlimited.step(np.zeros(4, np.float32))[3] for _ in range(60))
 
@@ -200,14 +200,14 @@ def test_pickle_and_deepcopy_round_trip() -> None:
 
 
 def test_save_and_restore_state_continue_identically(rng: np.random.Generator) -> None:
-    env = panda_rapier.PickAndPlaceEnv()
+    env = panda_rapier.PandaEnv()
     env.reset(seed=5)
     for _ in range(10):
         env.step(random_actions(rng, (4,)))
-    state = env.save_state()
+    state = env.snapshot()
     actions = [random_actions(rng, (4,)) for _ in range(15)]
     first = [env.step(a)[0]["observation"] for a in actions]
-    env.restore_state(state)
+    env.restore(state)
     second = [env.step(a)[0]["observation"] for a in actions]
     for a, b in zip(first, second, strict=True):
         np.testing.assert_array_equal(a, b)
@@ -241,3 +241,14 @@ def test_kinematic_arm_rejects_torque_control() -> None:
     env.reset(seed=0)
     with pytest.raises(panda_rapier.InvalidArgumentError, match="dynamic arm"):
         env.unwrapped.robot.torque_control("panda_joint2", 1.0)
+
+
+def test_names_from_before_tasks_are_the_same_objects() -> None:
+    """Code written against the first release keeps working: the old names are aliases."""
+    from panda_rapier import sb3
+
+    assert panda_rapier.PickAndPlaceEnv is panda_rapier.PandaEnv
+    assert panda_rapier.PickAndPlaceVectorEnv is panda_rapier.PandaVectorEnv
+    assert sb3.PandaRapierVecEnv is sb3.PandaVecEnv
+    assert panda_rapier.PandaEnv.save_state is panda_rapier.PandaEnv.snapshot
+    assert panda_rapier.PandaEnv.restore_state is panda_rapier.PandaEnv.restore

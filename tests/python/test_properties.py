@@ -20,9 +20,9 @@ from panda_rapier import (
     ConfigError,
     InvalidActionError,
     InvalidArgumentError,
+    PandaEnv,
     PandaRapierError,
-    PickAndPlaceEnv,
-    PickAndPlaceVectorEnv,
+    PandaVectorEnv,
     ResetNeededError,
     ScriptedPolicy,
 )
@@ -95,7 +95,7 @@ def test_any_action_steps_or_raises_invalid_action(
 @FAST
 @given(actions=wild_arrays(st.sampled_from([(3, 4), (3, 8), (4,), (3,), (0, 4), (3, 4, 1)])))
 def test_any_batch_steps_or_raises_invalid_action(actions: np.ndarray) -> None:
-    envs = PickAndPlaceVectorEnv(3)
+    envs = PandaVectorEnv(3)
     envs.reset(seed=1)
     try:
         obs, rewards, *_ = envs.step(actions)
@@ -125,7 +125,7 @@ JSON_VALUES = st.recursive(
 )
 def test_any_config_builds_a_working_env_or_raises_config_error(config: dict) -> None:
     try:
-        env = PickAndPlaceEnv(**config)
+        env = PandaEnv(**config)
     except ConfigError as error:
         assert isinstance(error, ValueError) and str(error)
         return
@@ -153,7 +153,7 @@ def test_any_config_builds_a_working_env_or_raises_config_error(config: dict) ->
 )
 def test_documented_invalid_configs(config: dict) -> None:
     with pytest.raises((ConfigError, panda_rapier.AssetError)):
-        PickAndPlaceEnv(**config)
+        PandaEnv(**config)
 
 
 @FAST
@@ -207,7 +207,7 @@ class CallOrder(RuleBasedStateMachine):
 
     def __init__(self) -> None:
         super().__init__()
-        self.env = PickAndPlaceEnv(max_episode_steps=3)
+        self.env = PandaEnv(max_episode_steps=3)
         self.reset_once = False
         self.closed = False
         self.saved = None
@@ -233,7 +233,7 @@ class CallOrder(RuleBasedStateMachine):
     @rule()
     def save(self) -> None:
         try:
-            self.saved = self.env.save_state()
+            self.saved = self.env.snapshot()
         except PandaRapierError:
             assert self.closed or not self.reset_once
 
@@ -241,7 +241,7 @@ class CallOrder(RuleBasedStateMachine):
     @rule()
     def restore(self) -> None:
         try:
-            self.env.restore_state(self.saved)
+            self.env.restore(self.saved)
         except PandaRapierError:
             assert self.closed
 

@@ -129,11 +129,11 @@ def test_the_same_state_gives_the_same_bytes() -> None:
     # Restoring a saved state redraws the saved picture.
     env = gym.make(ENV_ID, render_mode="rgb_array", width=240, height=160)
     env.reset(seed=3)
-    state = env.unwrapped.save_state()
+    state = env.unwrapped.snapshot()
     saved = env.render().tobytes()
     env.step(np.ones(4, dtype=np.float32))
     assert env.render().tobytes() != saved
-    env.unwrapped.restore_state(state)
+    env.unwrapped.restore(state)
     assert env.render().tobytes() == saved
     env.close()
 
@@ -178,15 +178,15 @@ def test_bad_render_options_are_config_errors(kwargs: dict) -> None:
         with pytest.raises(ConfigError):
             gym.make(ENV_ID, **kwargs)
     with pytest.raises(ConfigError):
-        panda_rapier.PickAndPlaceEnv(**kwargs)
+        panda_rapier.PandaEnv(**kwargs)
     with pytest.raises(ConfigError):
-        panda_rapier.PickAndPlaceVectorEnv(2, **kwargs)
+        panda_rapier.PandaVectorEnv(2, **kwargs)
 
 
 def test_vector_env_render_envs_must_fit() -> None:
     for bad in (0, 3, 1.5):
         with pytest.raises(ConfigError, match="render_envs"):
-            panda_rapier.PickAndPlaceVectorEnv(2, render_mode="rgb_array", render_envs=bad)
+            panda_rapier.PandaVectorEnv(2, render_mode="rgb_array", render_envs=bad)
 
 
 def test_a_straight_down_camera_draws_without_nan() -> None:
@@ -359,11 +359,11 @@ def test_the_readme_pictures_script_writes_a_png(tmp_path: Path) -> None:
 
 
 def test_render_after_close_is_a_reset_needed_error() -> None:
-    env = panda_rapier.PickAndPlaceEnv(render_mode="rgb_array", width=32, height=24)
+    env = panda_rapier.PandaEnv(render_mode="rgb_array", width=32, height=24)
     env.close()
     with pytest.raises(panda_rapier.ResetNeededError, match="closed"):
         env.render()
-    envs = panda_rapier.PickAndPlaceVectorEnv(2, render_mode="rgb_array", width=32, height=24)
+    envs = panda_rapier.PandaVectorEnv(2, render_mode="rgb_array", width=32, height=24)
     envs.close()
     with pytest.raises(panda_rapier.ResetNeededError, match="closed"):
         envs.render()

@@ -16,15 +16,15 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from panda_rapier import PickAndPlaceEnv, PickAndPlaceVectorEnv
+from panda_rapier import PandaEnv, PandaVectorEnv
 
 TRAJECTORY = """
 import hashlib, sys
 import numpy as np
-from panda_rapier import PickAndPlaceVectorEnv
+from panda_rapier import PandaVectorEnv
 
 num_envs, threads = int(sys.argv[1]), int(sys.argv[2])
-envs = PickAndPlaceVectorEnv(num_envs, num_threads=threads, control_mode="joints")
+envs = PandaVectorEnv(num_envs, num_threads=threads, control_mode="joints")
 obs, _ = envs.reset(seed=123)
 rng = np.random.default_rng(7)
 digest = hashlib.sha256()
@@ -57,7 +57,7 @@ def test_bit_identical_across_processes_threads_and_batch_sizes() -> None:
 
 
 def rollout(seed: int, steps: int = 25) -> bytes:
-    env = PickAndPlaceEnv(max_episode_steps=None)
+    env = PandaEnv(max_episode_steps=None)
     obs, _ = env.reset(seed=seed)
     rng = np.random.default_rng(seed)
     digest = hashlib.sha256()
@@ -78,7 +78,7 @@ def test_envs_stepped_from_several_python_threads_match_sequential_runs() -> Non
 
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 def test_keyboard_interrupt_during_a_batched_step_leaves_the_env_usable() -> None:
-    envs = PickAndPlaceVectorEnv(256, num_threads=2)
+    envs = PandaVectorEnv(256, num_threads=2)
     envs.reset(seed=0)
     actions = np.zeros((256, 4), np.float32)
     started = time.perf_counter()

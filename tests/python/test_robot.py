@@ -5,17 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from panda_rapier import PickAndPlaceEnv
+from panda_rapier import PandaEnv
 
 
 @pytest.fixture
-def env() -> PickAndPlaceEnv:
-    env = PickAndPlaceEnv()
+def env() -> PandaEnv:
+    env = PandaEnv()
     env.reset(seed=0)
     return env
 
 
-def test_joint_info_is_the_urdf_table(env: PickAndPlaceEnv) -> None:
+def test_joint_info_is_the_urdf_table(env: PandaEnv) -> None:
     joints = env.robot.joint_info()
     names = [j["name"] for j in joints]
     assert names[:7] == [f"panda_joint{i}" for i in range(1, 8)]
@@ -31,7 +31,7 @@ def test_joint_info_is_the_urdf_table(env: PickAndPlaceEnv) -> None:
     assert env.robot.num_dofs == 8
 
 
-def test_forward_kinematics_matches_the_simulated_links(env: PickAndPlaceEnv) -> None:
+def test_forward_kinematics_matches_the_simulated_links(env: PandaEnv) -> None:
     q = env.robot.joint_positions()
     poses = env.robot.forward_kinematics(q)
     for name in ("panda_link3", "panda_hand", "panda_leftfinger"):
@@ -40,7 +40,7 @@ def test_forward_kinematics_matches_the_simulated_links(env: PickAndPlaceEnv) ->
         )
 
 
-def test_inverse_kinematics_round_trip(env: PickAndPlaceEnv) -> None:
+def test_inverse_kinematics_round_trip(env: PandaEnv) -> None:
     target = [0.45, -0.1, 0.25]
     down = [1.0, 0.0, 0.0, 0.0]
     solution = env.robot.inverse_kinematics(target, down)
@@ -52,7 +52,7 @@ def test_inverse_kinematics_round_trip(env: PickAndPlaceEnv) -> None:
     assert not far["converged"] and far["position_error"] > 1.0
 
 
-def test_teleport_and_controls_move_the_robot(env: PickAndPlaceEnv) -> None:
+def test_teleport_and_controls_move_the_robot(env: PandaEnv) -> None:
     q = env.robot.joint_positions()
     q[0] = 0.3
     env.robot.set_joint_positions(q)

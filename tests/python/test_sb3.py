@@ -13,7 +13,7 @@ from stable_baselines3.common.env_checker import check_env
 from stable_baselines3.common.vec_env import SubprocVecEnv, VecEnv
 
 import panda_rapier
-from panda_rapier.sb3 import PandaRapierVecEnv, make_vec_env
+from panda_rapier.sb3 import PandaVecEnv, make_vec_env
 
 
 @pytest.mark.parametrize("env_id", panda_rapier.ENV_IDS)
@@ -24,7 +24,7 @@ def test_sb3_check_env(env_id: str) -> None:
 
 def test_make_vec_env_conventions() -> None:
     venv = make_vec_env("panda_rapier/PickAndPlace-v0", n_envs=3, seed=0, max_episode_steps=4)
-    assert isinstance(venv, VecEnv) and isinstance(venv, PandaRapierVecEnv)
+    assert isinstance(venv, VecEnv) and isinstance(venv, PandaVecEnv)
     assert venv.get_attr("dt") == [pytest.approx(0.04)] * 3
     assert venv.get_attr("render_mode", indices=[1]) == [None]
     venv.set_attr("tag", "x", indices=0)

@@ -11,14 +11,14 @@ from conftest import random_actions
 from gymnasium.vector import AutoresetMode
 
 import panda_rapier
-from panda_rapier import PickAndPlaceVectorEnv
+from panda_rapier import PandaVectorEnv
 
 ID = "panda_rapier/PickAndPlace-v0"
 
 
 def test_make_vec_returns_the_native_vector_env() -> None:
     envs = gym.make_vec(ID, num_envs=3, vectorization_mode="vector_entry_point", num_threads=2)
-    assert isinstance(envs, PickAndPlaceVectorEnv)
+    assert isinstance(envs, PandaVectorEnv)
     assert envs.num_threads == 2
     assert envs.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
     assert envs.observation_space["observation"].shape == (3, 41)
@@ -39,7 +39,7 @@ def test_env_i_matches_a_single_env_and_thread_count_does_not_matter(
     actions = [random_actions(rng, (4, 4)) for _ in range(30)]
     traces = []
     for threads in (1, 2):
-        envs = PickAndPlaceVectorEnv(4, num_threads=threads)
+        envs = PandaVectorEnv(4, num_threads=threads)
         obs, _ = envs.reset(seed=21)
         trace = [obs["observation"].copy()]
         for a in actions:
@@ -47,7 +47,7 @@ def test_env_i_matches_a_single_env_and_thread_count_does_not_matter(
         traces.append(trace)
     for a, b in zip(*traces, strict=True):
         np.testing.assert_array_equal(a, b)
-    single = panda_rapier.PickAndPlaceEnv()
+    single = panda_rapier.PandaEnv()
     obs, _ = single.reset(seed=21)
     np.testing.assert_array_equal(obs["observation"], traces[0][0][0])
     for t, a in enumerate(actions):
@@ -55,7 +55,7 @@ def test_env_i_matches_a_single_env_and_thread_count_does_not_matter(
 
 
 def test_next_step_autoreset() -> None:
-    envs = PickAndPlaceVectorEnv(2, max_episode_steps=3)
+    envs = PandaVectorEnv(2, max_episode_steps=3)
     envs.reset(seed=0)
     zeros = np.zeros((2, 4), np.float32)
     for _ in range(2):
@@ -68,9 +68,9 @@ def test_next_step_autoreset() -> None:
 
 
 def test_same_step_autoreset_reports_final_obs_and_info() -> None:
-    envs = PickAndPlaceVectorEnv(2, max_episode_steps=3, autoreset_mode="same_step")
+    envs = PandaVectorEnv(2, max_episode_steps=3, autoreset_mode="same_step")
     assert envs.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
-    reference = panda_rapier.PickAndPlaceEnv(max_episode_steps=3)
+    reference = panda_rapier.PandaEnv(max_episode_steps=3)
     envs.reset(seed=4)
     reference.reset(seed=4)
     zeros = np.zeros((2, 4), np.float32)
@@ -87,7 +87,7 @@ def test_same_step_autoreset_reports_final_obs_and_info() -> None:
 
 
 def test_disabled_autoreset_needs_a_masked_reset() -> None:
-    envs = PickAndPlaceVectorEnv(2, max_episode_steps=1, autoreset_mode="disabled")
+    envs = PandaVectorEnv(2, max_episode_steps=1, autoreset_mode="disabled")
     envs.reset(seed=0)
     zeros = np.zeros((2, 4), np.float32)
     assert envs.step(zeros)[3].all()
@@ -98,7 +98,7 @@ def test_disabled_autoreset_needs_a_masked_reset() -> None:
 
 
 def test_per_env_seeds_and_bad_seeds() -> None:
-    envs = PickAndPlaceVectorEnv(2)
+    envs = PandaVectorEnv(2)
     a, _ = envs.reset(seed=[5, 6])
     b, _ = envs.reset(seed=[5, 6])
     np.testing.assert_array_equal(a["observation"], b["observation"])
@@ -108,14 +108,12 @@ def test_per_env_seeds_and_bad_seeds() -> None:
         envs.reset(seed=-1)
 
 
-def _step_in_child(
-    envs: PickAndPlaceVectorEnv, actions: np.ndarray, queue: multiprocessing.Queue
-) -> None:
+def _step_in_child(envs: PandaVectorEnv, actions: np.ndarray, queue: multiprocessing.Queue) -> None:
     queue.put(envs.step(actions)[0]["observation"])
 
 
 def test_vector_env_survives_fork() -> None:
-    envs = PickAndPlaceVectorEnv(4, num_threads=2)
+    envs = PandaVectorEnv(4, num_threads=2)
     envs.reset(seed=2)
     actions = np.full((4, 4), 0.5, np.float32)
     envs.step(actions)  # the pool's threads exist now; a fork copies none of them

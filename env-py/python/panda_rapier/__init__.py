@@ -17,7 +17,7 @@ stable-baselines3 users: :func:`panda_rapier.sb3.make_vec_env` (needs the ``sb3`
 from __future__ import annotations
 
 from ._native import __version__
-from .env import PickAndPlaceEnv
+from .env import PandaEnv, PickAndPlaceEnv
 from .errors import (
     AssetError,
     ConfigError,
@@ -31,7 +31,7 @@ from .policy import ScriptedPolicy
 from .registration import ENV_IDS, MAX_EPISODE_STEPS, env_config, register_envs
 from .rendering import RENDER_MODES
 from .robot import Robot
-from .vector import PickAndPlaceVectorEnv
+from .vector import PandaVectorEnv, PickAndPlaceVectorEnv
 
 __all__ = [
     "ENV_IDS",
@@ -42,7 +42,9 @@ __all__ = [
     "DisplayError",
     "InvalidActionError",
     "InvalidArgumentError",
+    "PandaEnv",
     "PandaRapierError",
+    "PandaVectorEnv",
     "PickAndPlaceEnv",
     "PickAndPlaceVectorEnv",
     "ResetNeededError",

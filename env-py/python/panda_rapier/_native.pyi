@@ -9,15 +9,15 @@ __all__ = [
     "AssetError",
     "ConfigError",
     "DisplayError",
-    "EnvState",
+    "EnvSnapshot",
     "InvalidActionError",
     "InvalidArgumentError",
-    "NativeEnv",
-    "NativeRenderer",
-    "NativeScriptedPolicy",
-    "NativeVecEnv",
+    "PandaEnv",
     "PandaRapierError",
+    "PandaVecEnv",
+    "Renderer",
     "ResetNeededError",
+    "ScriptedPolicy",
     "__version__",
     "default_config_json",
     "tutorial_fidelity",
@@ -46,7 +46,7 @@ def evaluate_scripted(
     first_seed: int = 0,
 ) -> dict[str, Any]:
     """Runs the Rust ``panda_rapier_policies::evaluate`` (the scripted policy driving a
-    :class:`NativeEvaluation`) and returns its report as :meth:`NativeEvaluation.report` does."""
+    :class:`Evaluation`) and returns its report as :meth:`Evaluation.report` does."""
 
 _F32 = npt.NDArray[np.float32]
 _F64 = npt.NDArray[np.float64]
@@ -55,12 +55,12 @@ _Context = tuple[_F32, _F32, _F32, _F32, _Bool, _Bool, _Bool]
 _Pose = tuple[list[float], list[float]]
 
 @final
-class EnvState:
+class EnvSnapshot:
     """A saved environment state."""
 
 @final
-class NativeEnv:
-    def __new__(cls, config_json: str, index: int = 0) -> NativeEnv: ...
+class PandaEnv:
+    def __new__(cls, config_json: str, index: int = 0) -> PandaEnv: ...
     def config_json(self) -> str: ...
     @property
     def action_dim(self) -> int: ...
@@ -81,8 +81,8 @@ class NativeEnv:
     def compute_reward(
         self, achieved_goal: _F32, desired_goal: _F32, context: _Context | None = None
     ) -> _F64: ...
-    def save_state(self) -> EnvState: ...
-    def restore_state(self, state: EnvState) -> None: ...
+    def snapshot(self) -> EnvSnapshot: ...
+    def restore(self, snapshot: EnvSnapshot) -> None: ...
     def joint_info(self) -> list[dict[str, Any]]: ...
     def link_names(self) -> list[str]: ...
     def link_state(self, name: str) -> dict[str, Any]: ...
@@ -108,14 +108,14 @@ class NativeEnv:
     def object_state(self, name: str = "cube") -> dict[str, Any]: ...
 
 @final
-class NativeVecEnv:
+class PandaVecEnv:
     def __new__(
         cls,
         config_json: str,
         num_envs: int,
         num_threads: int | None = None,
         autoreset_mode: str = "next_step",
-    ) -> NativeVecEnv: ...
+    ) -> PandaVecEnv: ...
     @property
     def num_envs(self) -> int: ...
     @property
@@ -141,8 +141,8 @@ class NativeVecEnv:
     ) -> _F64: ...
 
 @final
-class NativeScriptedPolicy:
-    def __new__(cls, config_json: str) -> NativeScriptedPolicy: ...
+class ScriptedPolicy:
+    def __new__(cls, config_json: str) -> ScriptedPolicy: ...
     @property
     def action_dim(self) -> int: ...
     @property
@@ -151,7 +151,7 @@ class NativeScriptedPolicy:
     def phases(self, observations: _F32) -> list[str]: ...
 
 @final
-class NativeEvaluation:
+class Evaluation:
     """A seeded evaluation in progress (``panda_rapier_policies::Evaluation``): a vector env,
     the refill schedule (episode ``k`` seeded ``first_seed + k``, handed to the next free
     environment in environment order) and one record per episode. The caller supplies the
@@ -164,7 +164,7 @@ class NativeEvaluation:
         num_envs: int,
         num_threads: int | None = None,
         first_seed: int = 0,
-    ) -> NativeEvaluation:
+    ) -> Evaluation:
         """Builds ``min(num_envs, episodes)`` environments and starts the first episodes;
         ``max_episode_steps`` must be set (``ConfigError`` otherwise)."""
     @property
@@ -210,15 +210,13 @@ class NativeEvaluation:
         ``ResetNeededError`` before the evaluation is done."""
 
 @final
-class NativeRenderer:
-    def __new__(cls, config_json: str) -> NativeRenderer: ...
+class Renderer:
+    def __new__(cls, config_json: str) -> Renderer: ...
     def config_json(self) -> str: ...
     @property
     def width(self) -> int: ...
     @property
     def height(self) -> int: ...
-    def render_env(self, env: NativeEnv) -> npt.NDArray[np.uint8]: ...
-    def render_vec_env(self, envs: NativeVecEnv, index: int) -> npt.NDArray[np.uint8]: ...
-    def render_evaluation(
-        self, evaluation: NativeEvaluation, index: int
-    ) -> npt.NDArray[np.uint8]: ...
+    def render_env(self, env: PandaEnv) -> npt.NDArray[np.uint8]: ...
+    def render_vec_env(self, envs: PandaVecEnv, index: int) -> npt.NDArray[np.uint8]: ...
+    def render_evaluation(self, evaluation: Evaluation, index: int) -> npt.NDArray[np.uint8]: ...

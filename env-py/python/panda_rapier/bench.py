@@ -145,9 +145,9 @@ def _single_env_case(env_id: str, policy: str, steps: int, config: dict[str, Any
 def _vector_case(
     env_id: str, policy: str, num_envs: int, threads: int | None, config: dict[str, Any]
 ) -> BenchCase:
-    from .vector import PickAndPlaceVectorEnv
+    from .vector import PandaVectorEnv
 
-    envs = PickAndPlaceVectorEnv(num_envs, num_threads=threads, **env_config(env_id, **config))
+    envs = PandaVectorEnv(num_envs, num_threads=threads, **env_config(env_id, **config))
     obs, _ = envs.reset(seed=0)
     scripted = ScriptedPolicy(envs) if policy == "scripted" else None
     rng = np.random.default_rng(0)

@@ -8,14 +8,13 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.utils import EzPickle
 
-from . import _common
-from ._native import NativeEnv
+from . import _common, _native
 from .errors import InvalidArgumentError
 from .rendering import DEFAULT_HEIGHT, DEFAULT_WIDTH, RENDER_MODES, FrameSource
 from .robot import Robot
 
 
-class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray], EzPickle):
+class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray], EzPickle):
     """A Franka Panda picks a cube off the floor and places it on a platform.
 
     ## Description
@@ -115,7 +114,7 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
         self._frames: FrameSource | None = None
         # gym.make keeps time with a TimeLimit wrapper; the env counts only when asked to.
         config.setdefault("max_episode_steps", None)
-        self._bind_native(NativeEnv(_common.config_json(config), 0))
+        self._bind_native(_native.PandaEnv(_common.config_json(config), 0))
         # gymnasium types a Dict space's elements as dict[str, Space], not the observations.
         self.observation_space = cast(
             "gym.spaces.Space[dict[str, np.ndarray]]",
@@ -158,13 +157,18 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
             self.render()
         return _common.split_observation(flat, self._schema), reward, terminated, truncated, info
 
-    def save_state(self) -> Any:
+    def snapshot(self) -> _native.EnvSnapshot:
         """An opaque copy of the whole state (physics, random stream, goal, clock)."""
-        return self._native.save_state()
+        return self._native.snapshot()
 
-    def restore_state(self, state: Any) -> None:
-        """Returns to a state from :meth:`save_state`; stepping on continues bit-identically."""
-        self._native.restore_state(state)
+    def restore(self, snapshot: _native.EnvSnapshot) -> None:
+        """Returns to a state from :meth:`snapshot` (of this environment or one with the same
+        configuration); stepping on continues bit-identically."""
+        self._native.restore(snapshot)
+
+    #: The names before 0.2: :meth:`snapshot` and :meth:`restore`.
+    save_state = snapshot
+    restore_state = restore
 
     def render(self) -> np.ndarray | None:
         """The current state as an HxWx3 uint8 frame (``rgb_array``), or shown in the window
@@ -181,3 +185,7 @@ class PickAndPlaceEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.nd
         if frames is not None:
             frames.close()
         self._native = _common.Closed("environment")
+
+
+#: The name before tasks were added; the same class.
+PickAndPlaceEnv = PandaEnv

@@ -28,8 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from . import _common
-from ._native import NativeEvaluation
+from . import _common, _native
 from .errors import ConfigError, InvalidArgumentError
 from .policy import ScriptedPolicy
 
@@ -296,7 +295,7 @@ def evaluate(
     if config.get("max_episode_steps", 0) is None:
         raise ConfigError("evaluation needs a time limit: max_episode_steps must not be None")
     act, name = _actor(policy)
-    evaluation = NativeEvaluation(
+    evaluation = _native.Evaluation(
         _common.config_json(config), episodes, min(num_envs, episodes), num_threads, seed
     )
     full_config = json.loads(evaluation.config_json())

@@ -24,8 +24,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from . import _common
-from ._native import NativeScriptedPolicy
+from . import _common, _native
 from .errors import InvalidArgumentError
 from .registration import env_config
 
@@ -105,7 +104,7 @@ class ScriptedPolicy:
 
     def __init__(self, source: Any = None, **config: Any) -> None:
         options = {**_config_of(source), **config}
-        self._native = NativeScriptedPolicy(_common.config_json(options))
+        self._native = _native.ScriptedPolicy(_common.config_json(options))
         self.config: dict[str, Any] = options
         self.action_space = _common.action_space(self._native.action_dim)
         self.schema = _common.Schema.of(_common.config_json(options))

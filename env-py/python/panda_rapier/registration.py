@@ -11,7 +11,7 @@ from ._native import default_config_json
 
 #: Episode length of every registered id: the core's default, 70 steps at 25 Hz (2.8 s), the
 #: length the scripted baseline needs to place the cube in 99 % of episodes in both action
-#: modes (see ``help(panda_rapier.PickAndPlaceEnv)``).
+#: modes (see ``help(panda_rapier.PandaEnv)``).
 MAX_EPISODE_STEPS: int = json.loads(default_config_json())["max_episode_steps"]
 
 _VARIANTS: dict[str, dict[str, Any]] = {
@@ -51,8 +51,8 @@ def register_envs() -> None:
             continue
         gym.register(
             id=env_id,
-            entry_point="panda_rapier.env:PickAndPlaceEnv",
-            vector_entry_point="panda_rapier.vector:PickAndPlaceVectorEnv",
+            entry_point="panda_rapier.env:PandaEnv",
+            vector_entry_point="panda_rapier.vector:PandaVectorEnv",
             max_episode_steps=MAX_EPISODE_STEPS,
             kwargs=dict(kwargs),
         )

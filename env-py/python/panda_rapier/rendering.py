@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from ._native import NativeRenderer
+from . import _native
 from .errors import ConfigError, DisplayError
 
 #: The render modes every panda_rapier environment accepts.
@@ -45,7 +45,7 @@ def check_render_envs(render_envs: Any, num_envs: int) -> int:
     return int(render_envs)
 
 
-def make_renderer(width: Any, height: Any, camera: Mapping[str, Any] | None) -> NativeRenderer:
+def make_renderer(width: Any, height: Any, camera: Mapping[str, Any] | None) -> _native.Renderer:
     """A native renderer; bad sizes or camera options raise :class:`ConfigError`."""
     for name, value in (("width", width), ("height", height)):
         if isinstance(value, bool) or not isinstance(value, int | np.integer):
@@ -60,7 +60,7 @@ def make_renderer(width: Any, height: Any, camera: Mapping[str, Any] | None) -> 
         )
     except ValueError as error:
         raise ConfigError(f"camera options must be finite numbers: {error}") from error
-    return NativeRenderer(config)
+    return _native.Renderer(config)
 
 
 def tile(frames: list[np.ndarray]) -> np.ndarray:

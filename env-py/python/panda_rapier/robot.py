@@ -11,11 +11,11 @@ import numpy as np
 
 from .errors import InvalidArgumentError
 
-ControlMode = Literal["position", "velocity", "torque"]
+JointControl = Literal["position", "velocity", "torque"]
 
 
 class Robot:
-    """The robot of a :class:`~panda_rapier.PickAndPlaceEnv` (``env.unwrapped.robot``).
+    """The robot of a :class:`~panda_rapier.PandaEnv` (``env.unwrapped.robot``).
 
     Changing the robot's state (``set_joint_positions``, ``step_simulation``) refreshes the
     environment's observation. ``env.step`` sets its own joint targets, overriding controls set

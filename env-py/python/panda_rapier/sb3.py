@@ -26,8 +26,7 @@ except ImportError as error:  # pragma: no cover - exercised only without the ex
         "panda_rapier.sb3 needs stable-baselines3: pip install 'panda-rapier[sb3]'"
     ) from error
 
-from . import _common
-from ._native import NativeVecEnv
+from . import _common, _native
 from .errors import ConfigError, InvalidArgumentError
 from .registration import env_config
 from .rendering import (
@@ -39,14 +38,14 @@ from .rendering import (
     tile,
 )
 
-__all__ = ["PandaRapierVecEnv", "make_vec_env"]
+__all__ = ["PandaVecEnv", "make_vec_env"]
 
 
 class _SubEnv:
     """What ``get_attr`` / ``set_attr`` / ``env_method`` see as environment ``i``: the
     attributes every environment shares, plus any set with ``set_attr``."""
 
-    def __init__(self, owner: PandaRapierVecEnv, render_mode: str | None) -> None:
+    def __init__(self, owner: PandaVecEnv, render_mode: str | None) -> None:
         self._owner = owner
         self.render_mode = render_mode
 
@@ -66,19 +65,19 @@ class _SubEnv:
         return self._owner.compute_reward(achieved_goal, desired_goal, info)
 
 
-class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
+class PandaVecEnv(_common.NativeBacked, VecEnv):
     """``num_envs`` pick-and-place environments stepped in Rust, with stable-baselines3's
     conventions: same-step reset with ``infos[i]["terminal_observation"]``,
     ``infos[i]["TimeLimit.truncated"]``, ``infos[i]["is_success"]`` and, when an episode ends,
     ``infos[i]["episode"]`` (return, length, time: what ``VecMonitor`` adds, so no wrapper is
     needed for ``ep_rew_mean`` and success-rate logging). ``env_method("compute_reward", ...)``
     is batched, so ``HerReplayBuffer`` works. Every info carries the step info of
-    :class:`~panda_rapier.PickAndPlaceEnv`.
+    :class:`~panda_rapier.PandaEnv`.
 
     With ``render_mode="rgb_array"``, ``get_images()`` draws every environment and
     ``render()`` environment 0 (or the first ``render_envs`` tiled), so SB3's
     ``VecVideoRecorder`` works; ``"human"`` shows the same in a window. ``width``, ``height``
-    and ``camera`` as for :class:`~panda_rapier.PickAndPlaceEnv`.
+    and ``camera`` as for :class:`~panda_rapier.PandaEnv`.
     """
 
     def __init__(
@@ -100,7 +99,7 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
         self._render_envs = check_render_envs(render_envs, int(num_envs))
         check_render_mode(render_mode)
         self._bind_native(
-            NativeVecEnv(
+            _native.PandaVecEnv(
                 _common.config_json(config),
                 int(num_envs),
                 None if num_threads is None else int(num_threads),
@@ -129,7 +128,7 @@ class PandaRapierVecEnv(_common.NativeBacked, VecEnv):
     def reset(self) -> dict[str, np.ndarray]:
         seeds = [_common.as_seed(s) for s in self._seeds]
         if any(self._options):
-            raise InvalidArgumentError("PandaRapierVecEnv does not support reset options")
+            raise InvalidArgumentError("PandaVecEnv does not support reset options")
         flat = self._native.reset(seeds, None)
         self._reset_seeds()
         self._reset_options()
@@ -241,8 +240,8 @@ def make_vec_env(
     camera: dict[str, Any] | None = None,
     render_envs: int = 1,
     **config: Any,
-) -> PandaRapierVecEnv:
-    """A :class:`PandaRapierVecEnv` for a registered id (``panda_rapier.ENV_IDS``), with the
+) -> PandaVecEnv:
+    """A :class:`PandaVecEnv` for a registered id (``panda_rapier.ENV_IDS``), with the
     id's options (and its time limit, 70 steps) overridden by ``config``; ``render_mode``,
     ``width``, ``height``, ``camera`` and ``render_envs`` pass through to it.
 
@@ -250,7 +249,7 @@ def make_vec_env(
     stable-baselines3's own ``make_vec_env``); the same seed gives the same rollouts.
     """
     options = env_config(env_id, **config)
-    venv = PandaRapierVecEnv(
+    venv = PandaVecEnv(
         n_envs,
         num_threads=num_threads,
         spec=gym.spec(env_id),
@@ -264,3 +263,7 @@ def make_vec_env(
     if seed is not None:
         venv.seed(_common.as_seed(seed))
     return venv
+
+
+#: The name before tasks were added; the same class.
+PandaRapierVecEnv = PandaVecEnv

@@ -10,8 +10,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from . import _common
-from ._native import NativeVecEnv
+from . import _common, _native
 from .errors import ConfigError, InvalidArgumentError
 from .rendering import (
     DEFAULT_HEIGHT,
@@ -41,12 +40,12 @@ def _autoreset_mode(value: str | AutoresetMode) -> AutoresetMode:
     )
 
 
-class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
+class PandaVectorEnv(_common.NativeBacked, VectorEnv):
     """``num_envs`` pick-and-place environments stepped by a Rust thread pool
     (``num_threads``, default: the machine's cores), the GIL released meanwhile.
 
     Created by ``gym.make_vec(env_id, num_envs, vectorization_mode="vector_entry_point")`` or
-    directly; every keyword argument of :class:`~panda_rapier.PickAndPlaceEnv` applies.
+    directly; every keyword argument of :class:`~panda_rapier.PandaEnv` applies.
     Environment ``i`` draws from the random stream ``(seed, i)``, so results do not depend on
     ``num_threads`` and environment ``i`` behaves the same whatever ``num_envs`` is.
 
@@ -58,7 +57,7 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
 
     ``render()`` draws environment 0, or with ``render_envs=k`` the first ``k`` environments
     tiled in a near-square grid; ``render_mode``, ``width``, ``height`` and ``camera`` as for
-    :class:`~panda_rapier.PickAndPlaceEnv` (in ``human`` mode the window is updated by
+    :class:`~panda_rapier.PandaEnv` (in ``human`` mode the window is updated by
     ``render()`` calls only).
     """
 
@@ -88,7 +87,7 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
         check_render_mode(render_mode)
         mode = _autoreset_mode(autoreset_mode)
         self._bind_native(
-            NativeVecEnv(
+            _native.PandaVecEnv(
                 _common.config_json(config),
                 int(num_envs),
                 None if num_threads is None else int(num_threads),
@@ -220,3 +219,7 @@ class PickAndPlaceVectorEnv(_common.NativeBacked, VectorEnv):
         if frames is not None:
             frames.close()
         self._native = _common.Closed("vector environment")
+
+
+#: The name before tasks were added; the same class.
+PickAndPlaceVectorEnv = PandaVectorEnv

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from ._native import NativeEvaluation, NativeVecEnv
+from . import _native
 from .errors import PandaRapierError
 from .rendering import DEFAULT_HEIGHT, DEFAULT_WIDTH, make_renderer
 
@@ -54,10 +54,10 @@ class VideoRecorder:
         self._writer = open_video_writer(self.path, fps)
         self.frames = 0
 
-    def capture(self, envs: NativeVecEnv | NativeEvaluation, index: int = 0) -> np.ndarray:
+    def capture(self, envs: _native.PandaVecEnv | _native.Evaluation, index: int = 0) -> np.ndarray:
         """Appends a frame of environment ``index`` of a native vector env or of the vector
         env of a native evaluation (what :func:`~panda_rapier.evaluation.evaluate` passes)."""
-        if isinstance(envs, NativeEvaluation):
+        if isinstance(envs, _native.Evaluation):
             frame = self._renderer.render_evaluation(envs, index)
         else:
             frame = self._renderer.render_vec_env(envs, index)
