@@ -1,5 +1,9 @@
 """Training: what ``panda-rapier train`` runs.
 
+Over 600 lines: one command's run directory, resuming, recipes, periodic evaluations and
+progress display live together; what other commands share sits in ``evaluation`` and
+``reporting``.
+
 A run trains one algorithm on one registered id with the native stable-baselines3 ``VecEnv``
 and writes everything to its output directory:
 
