@@ -10,6 +10,7 @@ __all__ = [
     "ConfigError",
     "DisplayError",
     "EnvSnapshot",
+    "Evaluation",
     "InvalidActionError",
     "InvalidArgumentError",
     "PandaEnv",
@@ -20,6 +21,8 @@ __all__ = [
     "ScriptedPolicy",
     "__version__",
     "default_config_json",
+    "evaluate_scripted",
+    "schema",
     "tutorial_fidelity",
 ]
 
