@@ -10,7 +10,7 @@ use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use panda_rapier_core::task::observation::{
     GRIPPER_WIDTH, JOINT_POSITIONS, JOINT_VELOCITIES, TCP_POSITION, TCP_VELOCITY,
 };
-use panda_rapier_core::task::{make_task, ControlMode, EnvConfig, ObservationLayout};
+use panda_rapier_core::task::{make_task, ControlMode, EnvConfig, ObservationLayout, TaskKind};
 use panda_rapier_core::{Controller, Error, IkOptions, IkWorkspace, Result, Robot, RobotModel};
 
 /// What the controller is doing, recognised from the observation.
@@ -34,11 +34,13 @@ pub enum Phase {
     Retreat,
     /// Holding the cube at a goal in the air (nothing to place it on).
     Hold,
+    /// Moving the hand to the goal (the `reach` task: no cube).
+    Reach,
 }
 
 impl Phase {
     /// Every phase, in the order of the sequence.
-    pub const ALL: [Phase; 9] = [
+    pub const ALL: [Phase; 10] = [
         Phase::Approach,
         Phase::Descend,
         Phase::Close,
@@ -48,6 +50,7 @@ impl Phase {
         Phase::Release,
         Phase::Retreat,
         Phase::Hold,
+        Phase::Reach,
     ];
 
     /// The phase's name in snake case.
@@ -62,6 +65,7 @@ impl Phase {
             Phase::Release => "release",
             Phase::Retreat => "retreat",
             Phase::Hold => "hold",
+            Phase::Reach => "reach",
         }
     }
 }
@@ -261,6 +265,21 @@ impl ScriptedPolicy {
         let cube = v3(&s.achieved);
         let goal = v3(&s.desired);
         let tcp = v3(&s.tcp);
+        if self.config.task == TaskKind::Reach {
+            // No cube: straight to the goal, slowing down on arrival; the hand stays open.
+            let gain = if (goal - tcp).norm() < p.arrival_distance {
+                p.arrival_gain
+            } else {
+                1.0
+            };
+            return Ok(Decision {
+                phase: Phase::Reach,
+                tcp_target: goal,
+                speed: 1.0,
+                gain,
+                gripper: 1.0,
+            });
+        }
         let width = observation[s.width] as f64;
         let relative = cube - tcp;
         let horizontal = |v: Vector3<f64>| v.xy().norm();

@@ -39,13 +39,22 @@ pub enum TaskKind {
     /// ([`crate::task::PickAndPlace`]).
     #[default]
     PickAndPlace,
+    /// Move the tool centre point to a goal in the air ([`crate::task::Reach`]).
+    Reach,
+    /// Grasp the cube and lift it to a goal above where it started ([`crate::task::Lift`]).
+    Lift,
 }
 
 impl TaskKind {
+    /// Every task, in order.
+    pub const ALL: [TaskKind; 3] = [TaskKind::PickAndPlace, TaskKind::Reach, TaskKind::Lift];
+
     /// The name used in configs and on the command line.
     pub fn as_str(self) -> &'static str {
         match self {
             TaskKind::PickAndPlace => "pick_and_place",
+            TaskKind::Reach => "reach",
+            TaskKind::Lift => "lift",
         }
     }
 }
@@ -192,6 +201,8 @@ impl Default for TaskThresholds {
 ///   },
 ///   "goal_air_probability": 0.0,
 ///   "goal_air_height": [0.05, 0.2],
+///   "reach_goal_region": [[0.35, -0.25, 0.1], [0.65, 0.25, 0.4]],
+///   "lift_height": [0.05, 0.25],
 ///   "ee_step": 0.05,
 ///   "joint_step": 0.05,
 ///   "ee_workspace": [[0.15, -0.6, 0.0], [0.85, 0.6, 0.6]],
@@ -292,6 +303,12 @@ pub struct EnvConfig {
     pub goal_air_probability: f64,
     /// Height range (m) of an air goal above the cube's resting height on the platform.
     pub goal_air_height: Range,
+    /// `reach`: the box (m, world frame) goals are drawn in, as
+    /// `[[xlow, ylow, zlow], [xhigh, yhigh, zhigh]]`.
+    pub reach_goal_region: [[f64; 3]; 2],
+    /// `lift`: height range (m) of the goal above the cube's resting centre, straight above
+    /// where it starts.
+    pub lift_height: Range,
     /// TCP displacement (m) per step at action 1.0 (`ee` control).
     pub ee_step: f64,
     /// Joint target displacement (rad) per step at action 1.0 (`joints` control).
@@ -345,6 +362,8 @@ impl Default for EnvConfig {
             },
             goal_air_probability: 0.0,
             goal_air_height: [0.05, 0.2],
+            reach_goal_region: [[0.35, -0.25, 0.1], [0.65, 0.25, 0.4]],
+            lift_height: [0.05, 0.25],
             ee_step: 0.05,
             joint_step: 0.05,
             ee_workspace: [[0.15, -0.6, 0.0], [0.85, 0.6, 0.6]],
@@ -446,6 +465,11 @@ impl EnvConfig {
         self.goal_region.validate("goal_region")?;
         range("cube_yaw_range", self.cube_yaw_range, f64::NEG_INFINITY)?;
         range("goal_air_height", self.goal_air_height, 0.0)?;
+        range("lift_height", self.lift_height, 0.0)?;
+        let [low, high] = self.reach_goal_region;
+        for i in 0..3 {
+            range("reach_goal_region", [low[i], high[i]], f64::NEG_INFINITY)?;
+        }
         let p = self.goal_air_probability;
         if !(0.0..=1.0).contains(&p) {
             return Err(invalid(

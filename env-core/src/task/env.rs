@@ -451,7 +451,7 @@ impl PandaEnv {
         values[l.robot_slot(GRIPPER_WIDTH)][0] = self.sim.gripper_width();
         values[l.desired_goal()].copy_from_slice(&self.goal);
         let (goals, rest) = values.split_at_mut(l.observation().start);
-        let extras = &mut rest[l.task_slot(0).start - l.observation().start..];
+        let extras = &mut rest[l.task_slots().start - l.observation().start..];
         self.task.observe(
             &self.sim,
             &tcp,

@@ -6,14 +6,16 @@
 //! A task decides the scene (platform and objects), how an episode starts, its goals, the
 //! observation entries it adds after the robot's, and its reward and success predicates. The
 //! robot, its action controller, episode bookkeeping, blow-up detection and snapshots are the
-//! environment's, the same for every task. [`PickAndPlace`] is the first task; adding one is a
-//! new file here implementing [`Task`] and an entry in [`TaskKind`].
+//! environment's, the same for every task. The tasks: [`PickAndPlace`], [`Reach`], [`Lift`];
+//! adding one is a new file here implementing [`Task`] and an entry in [`TaskKind`].
 
 pub mod config;
 pub mod env;
 pub mod episode;
+pub mod lift;
 pub mod observation;
 pub mod pick_and_place;
+pub mod reach;
 pub mod reward;
 
 use rand_chacha::ChaCha8Rng;
@@ -23,11 +25,13 @@ pub use config::{
 };
 pub use env::{env_rng, EnvSnapshot, PandaEnv};
 pub use episode::{EpisodeStart, ObjectStart, ResetOptions, StepInfo, Transition};
+pub use lift::Lift;
 pub use observation::{
     InfoField, InfoType, InfoValue, ObservationLayout, Slot, SlotSpec, INFO_FIELDS,
     REWARD_CONTEXT_KEYS,
 };
 pub use pick_and_place::PickAndPlace;
+pub use reach::Reach;
 pub use reward::{RewardContext, RewardFunction, RewardTerms, RewardWeights};
 
 use crate::error::Result;
@@ -128,5 +132,7 @@ pub trait Task: Send + Sync + std::fmt::Debug {
 pub fn make_task(config: &EnvConfig) -> Box<dyn Task> {
     match config.task {
         TaskKind::PickAndPlace => Box::new(PickAndPlace::new(config)),
+        TaskKind::Reach => Box::new(Reach::new(config)),
+        TaskKind::Lift => Box::new(Lift::new(config)),
     }
 }

@@ -189,6 +189,11 @@ impl ObservationLayout {
         self.slots[2 + ROBOT_SLOTS.len() + index].range.clone()
     }
 
+    /// Where the task's slots sit together in the flat vector (empty for a task without any).
+    pub fn task_slots(&self) -> Range<usize> {
+        self.robot_slot(ROBOT_SLOTS.len() - 1).end..self.flat_dim()
+    }
+
     /// Every slot with its range in the flat vector, in order.
     pub fn slots(&self) -> &[Slot] {
         &self.slots

@@ -104,7 +104,8 @@ impl PickAndPlace {
         &self.reward
     }
 
-    fn cube(&self) -> ObjectId {
+    /// The cube's handle in the bound world.
+    pub(crate) fn cube(&self) -> ObjectId {
         // `bind` runs before any episode; an unbound task reads object 0, the only object.
         self.cube.unwrap_or_else(ObjectId::first)
     }

@@ -9,16 +9,31 @@ import gymnasium as gym
 
 from ._native import default_config_json
 
-#: Episode length of every registered id: the core's default, 70 steps at 25 Hz (2.8 s), the
-#: length the scripted baseline needs to place the cube in 99 % of episodes in both action
-#: modes (see ``help(panda_rapier.PandaEnv)``).
+#: Episode length of the pick-and-place and lift ids: the core's default, 70 steps at 25 Hz
+#: (2.8 s), the length the scripted baseline needs to place the cube in 99 % of episodes in both
+#: action modes (see ``help(panda_rapier.PandaEnv)``).
 MAX_EPISODE_STEPS: int = json.loads(default_config_json())["max_episode_steps"]
 
+#: Episode length of each task's ids: reach takes panda-gym's 50 steps (the scripted expert
+#: needs at most 26); the cube tasks the default.
+TASK_EPISODE_STEPS: dict[str, int] = {
+    "pick_and_place": MAX_EPISODE_STEPS,
+    "reach": 50,
+    "lift": MAX_EPISODE_STEPS,
+}
+
+#: Id prefix of each task.
+_TASK_NAMES = {"pick_and_place": "PickAndPlace", "reach": "Reach", "lift": "Lift"}
+
 _VARIANTS: dict[str, dict[str, Any]] = {
-    "panda_rapier/PickAndPlace-v0": {"control_mode": "ee", "reward_type": "sparse"},
-    "panda_rapier/PickAndPlaceDense-v0": {"control_mode": "ee", "reward_type": "dense"},
-    "panda_rapier/PickAndPlaceJoints-v0": {"control_mode": "joints", "reward_type": "sparse"},
-    "panda_rapier/PickAndPlaceJointsDense-v0": {"control_mode": "joints", "reward_type": "dense"},
+    f"panda_rapier/{name}{dense}-v0": {
+        "task": task,
+        "control_mode": control,
+        "reward_type": reward,
+    }
+    for task, name in _TASK_NAMES.items()
+    for control, joints in (("ee", ""), ("joints", "Joints"))
+    for reward, dense in (("sparse", joints), ("dense", joints + "Dense"))
 }
 
 #: Every registered environment id.
@@ -53,6 +68,6 @@ def register_envs() -> None:
             id=env_id,
             entry_point="panda_rapier.env:PandaEnv",
             vector_entry_point="panda_rapier.vector:PandaVectorEnv",
-            max_episode_steps=MAX_EPISODE_STEPS,
+            max_episode_steps=TASK_EPISODE_STEPS[kwargs["task"]],
             kwargs=dict(kwargs),
         )

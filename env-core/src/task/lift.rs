@@ -1,0 +1,152 @@
+//! [`Lift`]: grasp the cube and lift it to a goal straight above where it started (ManiSkill's
+//! PickCube, with the goal above the cube).
+//!
+//! # Observation
+//! As [`crate::task::pick_and_place`]'s: the goals are the cube centre's position and its goal,
+//! then the robot's slots and the cube's (47 entries for the Panda).
+//!
+//! # Starting state
+//! The cube on the floor at a uniform position in `pick_region` with a uniform yaw in
+//! `cube_yaw_range`; the goal straight above it, `lift_height` above its resting centre. The
+//! scene has no platform.
+//!
+//! # Rewards
+//! Pick-and-place's ([`crate::task::reward`]): `sparse` -1 until the cube is within
+//! `success_threshold` of the goal, then 0; `dense` the staged `reach`, `grasp`, `lift` and
+//! `carry` terms (there is no platform to place on, so `place` and `release` stay 0).
+
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+
+use super::{EnvConfig, EpisodeStart, ObjectStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use crate::error::Result;
+use crate::physics::{BodyState, ObjectSpec, Scene, Simulation};
+use crate::task::pick_and_place::PickAndPlace;
+use crate::task::reward::RewardContext;
+
+/// Lift the cube to a goal above its start (see the module documentation).
+#[derive(Debug, Clone)]
+pub struct Lift {
+    config: EnvConfig,
+    /// Observation, judgement and reward are pick-and-place's.
+    cube_task: PickAndPlace,
+}
+
+impl Lift {
+    /// The task as `config` sets it up.
+    pub fn new(config: &EnvConfig) -> Self {
+        Self {
+            config: config.clone(),
+            cube_task: PickAndPlace::new(config),
+        }
+    }
+}
+
+impl Task for Lift {
+    fn name(&self) -> &'static str {
+        "lift"
+    }
+
+    fn scene(&self, config: &EnvConfig) -> Scene {
+        let sim = &config.sim;
+        Scene {
+            platform: false,
+            objects: vec![ObjectSpec::cube("cube", sim, sim.cube.position)],
+        }
+    }
+
+    fn bind(&mut self, sim: &Simulation) -> Result<()> {
+        self.cube_task.bind(sim)
+    }
+
+    fn goal_dim(&self) -> usize {
+        self.cube_task.goal_dim()
+    }
+
+    fn goal_descriptions(&self) -> [&'static str; 2] {
+        [
+            "cube centre position",
+            "goal position for the cube centre, above its start",
+        ]
+    }
+
+    fn observation_slots(&self) -> &'static [SlotSpec] {
+        self.cube_task.observation_slots()
+    }
+
+    fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart) {
+        let config = &self.config;
+        let mut draw = || rng.random::<f64>();
+        // Always the same draws in the same order, whatever the overrides.
+        let cube_xy = config.pick_region.lerp([draw(), draw()]);
+        let yaw_u = draw();
+        let height_u = draw();
+        let size_u = draw();
+        let mass_u = draw();
+        let friction_u = draw();
+        let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
+            range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
+        };
+        let r = &config.randomization;
+        let cube = &config.sim.cube;
+        let size = pick(r.cube_size, cube.size, size_u);
+        let mass = pick(r.cube_mass, cube.mass, mass_u);
+        let friction = pick(r.cube_friction, cube.friction, friction_u);
+        let yaw = config.cube_yaw_range[0]
+            + (config.cube_yaw_range[1] - config.cube_yaw_range[0]) * yaw_u;
+        let position = options.cube_position.map_or(
+            Vector3::new(cube_xy[0], cube_xy[1], size / 2.0),
+            Vector3::from,
+        );
+        let [low, high] = config.lift_height;
+        let goal = options.goal.map_or(
+            Vector3::new(
+                position.x,
+                position.y,
+                size / 2.0 + low + (high - low) * height_u,
+            ),
+            Vector3::from,
+        );
+        let randomised =
+            r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some();
+        start.objects.clear();
+        start.objects.push(ObjectStart {
+            object: self.cube_task.cube(),
+            position,
+            orientation: UnitQuaternion::from_axis_angle(
+                &Vector3::z_axis(),
+                options.cube_yaw.unwrap_or(yaw),
+            ),
+            properties: randomised.then_some((size, mass, friction)),
+        });
+        start.goal.clear();
+        start.goal.extend_from_slice(goal.as_slice());
+    }
+
+    fn observe(
+        &self,
+        sim: &Simulation,
+        tcp: &BodyState,
+        goal: &[f64],
+        achieved: &mut [f64],
+        extras: &mut [f64],
+    ) {
+        self.cube_task.observe(sim, tcp, goal, achieved, extras)
+    }
+
+    fn evaluate(&self, view: &View<'_>) -> Verdict {
+        self.cube_task.evaluate(view)
+    }
+
+    fn compute_rewards(
+        &self,
+        achieved: &[f32],
+        desired: &[f32],
+        contexts: &[RewardContext],
+        out: &mut [f32],
+    ) -> Result<()> {
+        self.cube_task
+            .compute_rewards(achieved, desired, contexts, out)
+    }
+}

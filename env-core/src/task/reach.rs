@@ -1,0 +1,179 @@
+//! [`Reach`]: move the tool centre point to a goal in the air (panda-gym's PandaReach).
+//!
+//! # Observation
+//!
+//! No objects: for the Panda `observation` has the robot's 25 entries and the flat vector 31.
+//!
+//! | flat index | dict key / `observation` index | slot | size | meaning |
+//! |---|---|---|---|---|
+//! | 0..3 | `achieved_goal` | `achieved_goal` | 3 | tool centre point position |
+//! | 3..6 | `desired_goal` | `desired_goal` | 3 | goal position for the tool centre point |
+//! | 6..15 | `observation` 0..9 | `joint_positions` | 9 | arm joints 1-7 (rad), finger joints 1-2 (m) |
+//! | 15..24 | `observation` 9..18 | `joint_velocities` | 9 | their velocities |
+//! | 24..27 | `observation` 18..21 | `tcp_position` | 3 | tool centre point (between the fingertips) |
+//! | 27..30 | `observation` 21..24 | `tcp_velocity` | 3 | its linear velocity |
+//! | 30 | `observation` 24 | `gripper_width` | 1 | opening between the finger pads (m) |
+//!
+//! # Starting state
+//! The robot in its start pose; the goal uniform in the box `reach_goal_region`. The scene is
+//! the floor alone (no platform, no objects).
+//!
+//! # Rewards
+//! `sparse`: -1 until the tool centre point is within `success_threshold` of the goal, then 0.
+//! `dense`: `reward_weights.reach * (1 - tanh(5 d))`, `d` the distance to the goal (so in
+//! `[0, reach]`, 1 at the goal with the default weight). Both depend on the goals alone, so
+//! relabelled goals get exactly the reward the environment would have given. The info's
+//! grasp, lift and cube entries are false or 0.
+
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+
+use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use crate::error::{ensure_len, Error, Result};
+use crate::physics::{BodyState, Scene, Simulation};
+use crate::task::config::RewardType;
+use crate::task::reward::{closeness, RewardContext, RewardFunction, RewardTerms, GOAL_DIM};
+
+/// Move the tool centre point to the goal (see the module documentation).
+#[derive(Debug, Clone)]
+pub struct Reach {
+    config: EnvConfig,
+}
+
+impl Reach {
+    /// The task as `config` sets it up.
+    pub fn new(config: &EnvConfig) -> Self {
+        Self {
+            config: config.clone(),
+        }
+    }
+
+    /// The reward for one pair of goals.
+    fn reward(&self, achieved: &[f32], desired: &[f32]) -> (f64, bool, f32) {
+        let distance = RewardFunction::distance(achieved, desired);
+        let success = distance < self.config.success_threshold;
+        let reward = match self.config.reward_type {
+            RewardType::Sparse => {
+                if success {
+                    0.0
+                } else {
+                    -1.0
+                }
+            }
+            RewardType::Dense => self.config.reward_weights.reach as f32 * closeness(distance),
+        };
+        (distance, success, reward)
+    }
+}
+
+impl Task for Reach {
+    fn name(&self) -> &'static str {
+        "reach"
+    }
+
+    fn scene(&self, _config: &EnvConfig) -> Scene {
+        Scene {
+            platform: false,
+            objects: Vec::new(),
+        }
+    }
+
+    fn bind(&mut self, _sim: &Simulation) -> Result<()> {
+        Ok(())
+    }
+
+    fn goal_dim(&self) -> usize {
+        GOAL_DIM
+    }
+
+    fn goal_descriptions(&self) -> [&'static str; 2] {
+        [
+            "tool centre point position",
+            "goal position for the tool centre point",
+        ]
+    }
+
+    fn observation_slots(&self) -> &'static [SlotSpec] {
+        &[]
+    }
+
+    fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart) {
+        let [low, high] = self.config.reach_goal_region;
+        let mut goal = [0.0; 3];
+        for i in 0..3 {
+            goal[i] = low[i] + (high[i] - low[i]) * rng.random::<f64>();
+        }
+        start.objects.clear();
+        start.goal.clear();
+        start.goal.extend_from_slice(&options.goal.unwrap_or(goal));
+    }
+
+    fn observe(
+        &self,
+        _sim: &Simulation,
+        tcp: &BodyState,
+        _goal: &[f64],
+        achieved: &mut [f64],
+        _extras: &mut [f64],
+    ) {
+        achieved.copy_from_slice(tcp.position.as_slice());
+    }
+
+    fn evaluate(&self, view: &View<'_>) -> Verdict {
+        let l = view.layout;
+        let obs = view.observation;
+        let (distance, is_success, reward) =
+            self.reward(&obs[l.achieved_goal()], &obs[l.desired_goal()]);
+        let context = RewardContext {
+            gripper_opening: view.gripper_opening as f32,
+            ..RewardContext::default()
+        };
+        let terms = match self.config.reward_type {
+            RewardType::Sparse => RewardTerms::default(),
+            RewardType::Dense => RewardTerms {
+                reach: reward,
+                ..RewardTerms::default()
+            },
+        };
+        Verdict {
+            is_success,
+            goal_distance: distance,
+            context,
+            terms,
+            reward,
+            ..Verdict::default()
+        }
+    }
+
+    fn compute_rewards(
+        &self,
+        achieved: &[f32],
+        desired: &[f32],
+        _contexts: &[RewardContext],
+        out: &mut [f32],
+    ) -> Result<()> {
+        if achieved.len() % GOAL_DIM != 0 {
+            return Err(Error::WrongLength {
+                what: "achieved_goal (n x 3)".into(),
+                expected: (achieved.len() / GOAL_DIM + 1) * GOAL_DIM,
+                got: achieved.len(),
+            });
+        }
+        let n = achieved.len() / GOAL_DIM;
+        ensure_len("desired_goal (n x 3)", achieved.len(), desired.len())?;
+        ensure_len("reward output", n, out.len())?;
+        for (name, values) in [("achieved_goal", achieved), ("desired_goal", desired)] {
+            if let Some((i, &v)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                return Err(Error::NonFinite {
+                    what: format!("{name}[{}][{}]", i / GOAL_DIM, i % GOAL_DIM),
+                    value: v as f64,
+                });
+            }
+        }
+        for (i, r) in out.iter_mut().enumerate() {
+            let span = i * GOAL_DIM..(i + 1) * GOAL_DIM;
+            *r = self.reward(&achieved[span.clone()], &desired[span]).2;
+        }
+        Ok(())
+    }
+}
