@@ -76,7 +76,7 @@ fn every_task_continues_bit_identically_from_a_snapshot() {
         let actions: Vec<Vec<f32>> = (0..15)
             .map(|_| random_actions(&mut rng, env.action_dim()))
             .collect();
-        let mut run = |env: &mut PandaEnv| {
+        let run = |env: &mut PandaEnv| {
             let mut bits = Vec::new();
             for a in &actions {
                 let t = env.step(a).unwrap();
