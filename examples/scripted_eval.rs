@@ -41,6 +41,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         arm,
         ..EnvConfig::default()
     };
+    // Optional overrides as JSON, e.g. '{"cube_yaw_range": [0, 0]}' (merged over the above).
+    let config = match std::env::var("PANDA_RAPIER_CONFIG") {
+        Ok(extra) => {
+            let mut value = serde_json::to_value(&config)?;
+            let extra: serde_json::Value = serde_json::from_str(&extra)?;
+            if let (Some(base), Some(extra)) = (value.as_object_mut(), extra.as_object()) {
+                for (k, v) in extra {
+                    base.insert(k.clone(), v.clone());
+                }
+            }
+            EnvConfig::from_json(&value.to_string())?
+        }
+        Err(_) => config,
+    };
     let start = Instant::now();
     let report = evaluate(&config, episodes, num_envs, None, 0, |done| {
         eprint!("\r{done}/{episodes} episodes");

@@ -100,6 +100,12 @@ pub struct ScriptedParams {
     pub release_height: f64,
     /// The hand rises this far above the goal after releasing.
     pub retreat_height: f64,
+    /// `stack`: the hover height used on the way from the stack to the second cube, higher
+    /// than `hover_height` because that way starts low and the arm lags downwards.
+    pub stack_hover_height: f64,
+    /// `stack`: horizontal distance from the top cube to the bottom one below which the top
+    /// cube is lowered onto it (tighter than `place_tolerance`: an overhanging cube slides off).
+    pub stack_place_tolerance: f64,
 }
 
 impl Default for ScriptedParams {
@@ -117,6 +123,8 @@ impl Default for ScriptedParams {
             release_height: 0.004,
             arrival_distance: 0.05,
             retreat_height: 0.1,
+            stack_hover_height: 0.1,
+            stack_place_tolerance: 0.006,
         }
     }
 }
@@ -281,8 +289,38 @@ impl ScriptedPolicy {
             });
         }
         let width = observation[s.width] as f64;
-        let relative = cube - tcp;
         let horizontal = |v: Vector3<f64>| v.xy().norm();
+        // The surface the cube is put down on: the platform or floor under the goal, or, for
+        // the top cube of a stack, the bottom cube.
+        // `careful`: the second cube of a stack, reached from the side at speed, where the hand
+        // goes down only once it has stopped moving sideways.
+        let (cube, goal, goal_surface, hover_height, careful) =
+            if self.config.task == TaskKind::Stack {
+                let cube2 = vector_at(observation, &(s.achieved.start + 3..s.achieved.end));
+                let goal2 = vector_at(observation, &(s.desired.start + 3..s.desired.end));
+                // The bottom cube is done once it is at its goal and the hand is not at it (still
+                // holding it, or letting go): from there the hand rises before it heads for the
+                // other cube, and carrying that one over the stack does not count as undone.
+                let at_first = horizontal(cube - tcp) < p.in_hand_tolerance + 0.01
+                    && tcp.z - cube.z < p.in_hand_height + 0.02;
+                let first_done = (cube - goal).norm() < self.config.success_threshold && !at_first;
+                if first_done {
+                    (
+                        cube2,
+                        goal2,
+                        cube.z + self.cube_half,
+                        p.stack_hover_height,
+                        true,
+                    )
+                } else {
+                    let surface = self.config.surface_height(goal.x, goal.y);
+                    (cube, goal, surface, p.hover_height, false)
+                }
+            } else {
+                let surface = self.config.surface_height(goal.x, goal.y);
+                (cube, goal, surface, p.hover_height, false)
+            };
+        let relative = cube - tcp;
         let tcp_speed = v3(&s.tcp_velocity).norm();
         let finger_speed = self
             .finger_slots()
@@ -295,7 +333,6 @@ impl ScriptedPolicy {
         let hand_closed = width < 0.9 * self.open_width;
         let squeezing = hand_closed && width > 0.5 * self.cube_half;
         let held = around_cube && squeezing && finger_speed < 0.02;
-        let goal_surface = self.config.surface_height(goal.x, goal.y);
         let air_goal = goal.z > goal_surface + self.cube_half + 0.01;
         let cube_to_goal = (cube - goal).norm();
 
@@ -312,7 +349,12 @@ impl ScriptedPolicy {
         if held {
             let offset_to_tcp = -relative;
             let off_goal = horizontal(goal - cube);
-            if off_goal > p.place_tolerance {
+            let place_tolerance = if careful {
+                p.stack_place_tolerance
+            } else {
+                p.place_tolerance
+            };
+            if off_goal > place_tolerance {
                 // Carry at the goal's height plus clearance, never lower than the cube is now,
                 // and move sideways only where the cube clears every surface on the way.
                 let carry_z = (goal.z + if air_goal { 0.0 } else { 0.03 }).max(cube.z);
@@ -374,15 +416,16 @@ impl ScriptedPolicy {
         if hand_closed {
             // A closed hand away from the cube (a missed or lost grasp): open it, rising to
             // the approach height while it opens.
-            let up = Vector3::new(tcp.x, tcp.y, tcp.z.max(cube.z + p.hover_height));
+            let up = Vector3::new(tcp.x, tcp.y, tcp.z.max(cube.z + hover_height));
             return Ok(decision(Phase::Approach, up, 1.0, 1.0));
         }
         // Come in along a funnel over the cube: straight down once lined up, otherwise high
         // enough that the open fingers pass over the cube's top.
-        if misalignment <= p.align_tolerance {
+        let sideways_settled = !careful || v3(&s.tcp_velocity).xy().norm() < p.settle_speed;
+        if misalignment <= p.align_tolerance && sideways_settled {
             return Ok(decision(Phase::Descend, cube, 1.0, 1.0));
         }
-        let mut height = (0.045 + 0.5 * (misalignment - p.align_tolerance)).min(p.hover_height);
+        let mut height = (0.045 + 0.5 * (misalignment - p.align_tolerance)).min(hover_height);
         if misalignment < 2.5 * p.align_tolerance && tcp.z > cube.z + p.in_hand_height {
             // Nearly lined up and clear of the cube: hold the height while the hand centres,
             // rather than bouncing up the funnel after every small sideways wobble.

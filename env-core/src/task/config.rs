@@ -43,11 +43,18 @@ pub enum TaskKind {
     Reach,
     /// Grasp the cube and lift it to a goal above where it started ([`crate::task::Lift`]).
     Lift,
+    /// Put one cube on the platform and the other on top of it ([`crate::task::Stack`]).
+    Stack,
 }
 
 impl TaskKind {
     /// Every task, in order.
-    pub const ALL: [TaskKind; 3] = [TaskKind::PickAndPlace, TaskKind::Reach, TaskKind::Lift];
+    pub const ALL: [TaskKind; 4] = [
+        TaskKind::PickAndPlace,
+        TaskKind::Reach,
+        TaskKind::Lift,
+        TaskKind::Stack,
+    ];
 
     /// The name used in configs and on the command line.
     pub fn as_str(self) -> &'static str {
@@ -55,6 +62,7 @@ impl TaskKind {
             TaskKind::PickAndPlace => "pick_and_place",
             TaskKind::Reach => "reach",
             TaskKind::Lift => "lift",
+            TaskKind::Stack => "stack",
         }
     }
 }

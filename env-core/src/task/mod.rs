@@ -6,7 +6,7 @@
 //! A task decides the scene (platform and objects), how an episode starts, its goals, the
 //! observation entries it adds after the robot's, and its reward and success predicates. The
 //! robot, its action controller, episode bookkeeping, blow-up detection and snapshots are the
-//! environment's, the same for every task. The tasks: [`PickAndPlace`], [`Reach`], [`Lift`];
+//! environment's, the same for every task. The tasks: [`PickAndPlace`], [`Reach`], [`Lift`], [`Stack`];
 //! adding one is a new file here implementing [`Task`] and an entry in [`TaskKind`].
 
 pub mod config;
@@ -17,6 +17,7 @@ pub mod observation;
 pub mod pick_and_place;
 pub mod reach;
 pub mod reward;
+pub mod stack;
 
 use rand_chacha::ChaCha8Rng;
 
@@ -33,6 +34,7 @@ pub use observation::{
 pub use pick_and_place::PickAndPlace;
 pub use reach::Reach;
 pub use reward::{RewardContext, RewardFunction, RewardTerms, RewardWeights};
+pub use stack::Stack;
 
 use crate::error::Result;
 use crate::physics::{BodyState, Scene, Simulation};
@@ -134,5 +136,6 @@ pub fn make_task(config: &EnvConfig) -> Box<dyn Task> {
         TaskKind::PickAndPlace => Box::new(PickAndPlace::new(config)),
         TaskKind::Reach => Box::new(Reach::new(config)),
         TaskKind::Lift => Box::new(Lift::new(config)),
+        TaskKind::Stack => Box::new(Stack::new(config)),
     }
 }

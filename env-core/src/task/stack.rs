@@ -1,0 +1,440 @@
+//! [`Stack`]: put one cube on the goal on the platform and the other on top of it (panda-gym's
+//! PandaStack, with the platform as the base).
+//!
+//! # Observation
+//!
+//! Two cubes, `cube1` (the bottom one) and `cube2`: for the Panda `observation` has 57 entries
+//! and the flat vector 69.
+//!
+//! | flat index | dict key / `observation` index | slot | size | meaning |
+//! |---|---|---|---|---|
+//! | 0..6 | `achieved_goal` | `achieved_goal` | 6 | centres of cube1 and cube2 |
+//! | 6..12 | `desired_goal` | `desired_goal` | 6 | their goals: on the platform, and on top of that |
+//! | 12..21 | `observation` 0..9 | `joint_positions` | 9 | arm joints 1-7 (rad), finger joints 1-2 (m) |
+//! | 21..30 | `observation` 9..18 | `joint_velocities` | 9 | their velocities |
+//! | 30..33 | `observation` 18..21 | `tcp_position` | 3 | tool centre point (between the fingertips) |
+//! | 33..36 | `observation` 21..24 | `tcp_velocity` | 3 | its linear velocity |
+//! | 36 | `observation` 24 | `gripper_width` | 1 | opening between the finger pads (m) |
+//! | 37..40 | `observation` 25..28 | `cube1_position` | 3 | cube1's centre |
+//! | 40..44 | `observation` 28..32 | `cube1_orientation` | 4 | unit quaternion x, y, z, w with w >= 0 |
+//! | 44..47 | `observation` 32..35 | `cube1_linear_velocity` | 3 | cube1's centre velocity |
+//! | 47..50 | `observation` 35..38 | `cube1_angular_velocity` | 3 | cube1's angular velocity |
+//! | 50..53 | `observation` 38..41 | `cube1_relative_position` | 3 | cube1's centre minus TCP position |
+//! | 53..56 | `observation` 41..44 | `cube2_position` | 3 | cube2's centre |
+//! | 56..60 | `observation` 44..48 | `cube2_orientation` | 4 | unit quaternion x, y, z, w with w >= 0 |
+//! | 60..63 | `observation` 48..51 | `cube2_linear_velocity` | 3 | cube2's centre velocity |
+//! | 63..66 | `observation` 51..54 | `cube2_angular_velocity` | 3 | cube2's angular velocity |
+//! | 66..69 | `observation` 54..57 | `cube2_relative_position` | 3 | cube2's centre minus TCP position |
+//!
+//! # Starting state
+//! Both cubes on the floor in `pick_region`, one in each half along y with 0.1 m between the
+//! halves (which cube gets which half is drawn), each with a uniform yaw in `cube_yaw_range`.
+//! cube1's goal is uniform in `goal_region` resting on the platform; cube2's is straight above
+//! it, resting on cube1. The reset options `cube_position` and `goal` set cube1's start and
+//! goal; `cube_yaw` both yaws.
+//!
+//! # Success and rewards
+//! `is_success`: both cubes within `success_threshold` of their goals (`goal_distance` is the
+//! larger of the two distances). `is_placed`: besides, no robot link touches either cube, both
+//! are at rest, cube1 touches the platform and cube2 touches cube1. `sparse`: -1 until success,
+//! then 0. `dense`: `reach` (`1 - tanh(5 d)`, `d` from the TCP to the first cube not at its
+//! goal) + `grasp` (either cube squeezed by both fingers) + `carry` times the mean of
+//! `1 - tanh(5 d_i)` over the two cubes + `place` once placed, each with its
+//! `reward_weights` entry. The info's `cube_*` flags describe the pair (released: neither cube
+//! touched; at rest: both; on platform: stacked as above); `reward_lift` is 0.
+
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+
+use super::{EnvConfig, EpisodeStart, ObjectStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use crate::error::{ensure_len, Error, Result};
+use crate::physics::{BodyState, ObjectId, ObjectSpec, ObjectTouch, Scene, Simulation};
+use crate::task::config::RewardType;
+use crate::task::reward::{closeness, RewardContext, RewardFunction, RewardTerms};
+
+/// The task's observation slots, after the robot's: five per cube.
+const SLOTS: [SlotSpec; 10] = [
+    cube_slot("cube1_position", 3, "cube1's centre"),
+    cube_slot(
+        "cube1_orientation",
+        4,
+        "unit quaternion x, y, z, w with w >= 0",
+    ),
+    cube_slot("cube1_linear_velocity", 3, "cube1's centre velocity"),
+    cube_slot("cube1_angular_velocity", 3, "cube1's angular velocity"),
+    cube_slot(
+        "cube1_relative_position",
+        3,
+        "cube1's centre minus TCP position",
+    ),
+    cube_slot("cube2_position", 3, "cube2's centre"),
+    cube_slot(
+        "cube2_orientation",
+        4,
+        "unit quaternion x, y, z, w with w >= 0",
+    ),
+    cube_slot("cube2_linear_velocity", 3, "cube2's centre velocity"),
+    cube_slot("cube2_angular_velocity", 3, "cube2's angular velocity"),
+    cube_slot(
+        "cube2_relative_position",
+        3,
+        "cube2's centre minus TCP position",
+    ),
+];
+/// Slots per cube, and the offsets of the ones the task reads.
+const PER_CUBE: usize = 5;
+const LINEAR_VELOCITY: usize = 2;
+const ANGULAR_VELOCITY: usize = 3;
+const RELATIVE_POSITION: usize = 4;
+
+const fn cube_slot(name: &'static str, size: usize, description: &'static str) -> SlotSpec {
+    SlotSpec {
+        name,
+        size: Some(size),
+        description,
+    }
+}
+
+/// One position per cube.
+const GOAL_DIM: usize = 6;
+/// Gap (m) along y between the halves of `pick_region` the two cubes start in.
+const START_GAP: f64 = 0.1;
+
+/// Stack the two cubes on the platform (see the module documentation).
+#[derive(Debug, Clone)]
+pub struct Stack {
+    config: EnvConfig,
+    cubes: Option<[ObjectId; 2]>,
+}
+
+impl Stack {
+    /// The task as `config` sets it up.
+    pub fn new(config: &EnvConfig) -> Self {
+        Self {
+            config: config.clone(),
+            cubes: None,
+        }
+    }
+
+    fn cubes(&self) -> [ObjectId; 2] {
+        // `bind` runs before any episode; unbound, the scene's objects are in order.
+        self.cubes
+            .unwrap_or_else(|| [ObjectId::first(), ObjectId::first()])
+    }
+
+    /// Distances of the two cubes to their goals, success and the reward for one transition.
+    fn judge(&self, achieved: &[f32], desired: &[f32], context: &RewardContext) -> Judgement {
+        let d = [
+            RewardFunction::distance(&achieved[..3], &desired[..3]),
+            RewardFunction::distance(&achieved[3..], &desired[3..]),
+        ];
+        let threshold = self.config.success_threshold;
+        let is_success = d[0] < threshold && d[1] < threshold;
+        let is_placed =
+            is_success && context.cube_released && context.cube_at_rest && context.cube_on_platform;
+        let w = &self.config.reward_weights;
+        let (reward, terms) = match self.config.reward_type {
+            RewardType::Sparse => (if is_success { 0.0 } else { -1.0 }, RewardTerms::default()),
+            RewardType::Dense => {
+                let terms = RewardTerms {
+                    reach: context.reach,
+                    grasp: context.grasp,
+                    lift: 0.0,
+                    carry: w.carry as f32 * (closeness(d[0]) + closeness(d[1])) / 2.0,
+                    place: if is_placed { w.place as f32 } else { 0.0 },
+                    release: 0.0,
+                };
+                (terms.total(), terms)
+            }
+        };
+        Judgement {
+            distance: d[0].max(d[1]),
+            is_success,
+            is_placed,
+            reward,
+            terms,
+        }
+    }
+}
+
+/// What [`Stack::judge`] finds.
+struct Judgement {
+    distance: f64,
+    is_success: bool,
+    is_placed: bool,
+    reward: f32,
+    terms: RewardTerms,
+}
+
+impl Task for Stack {
+    fn name(&self) -> &'static str {
+        "stack"
+    }
+
+    fn scene(&self, config: &EnvConfig) -> Scene {
+        let sim = &config.sim;
+        let [x, y, z] = sim.cube.position;
+        Scene {
+            platform: true,
+            objects: vec![
+                ObjectSpec::cube("cube1", sim, [x, y, z]),
+                ObjectSpec::cube("cube2", sim, [x, y + 2.0 * sim.cube.size, z]),
+            ],
+        }
+    }
+
+    fn bind(&mut self, sim: &Simulation) -> Result<()> {
+        self.cubes = Some([sim.object("cube1")?, sim.object("cube2")?]);
+        Ok(())
+    }
+
+    fn goal_dim(&self) -> usize {
+        GOAL_DIM
+    }
+
+    fn goal_descriptions(&self) -> [&'static str; 2] {
+        [
+            "centres of cube1 and cube2",
+            "their goals: on the platform, and on top of that",
+        ]
+    }
+
+    fn observation_slots(&self) -> &'static [SlotSpec] {
+        &SLOTS
+    }
+
+    fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart) {
+        let config = &self.config;
+        let mut draw = || rng.random::<f64>();
+        // Always the same draws in the same order, whatever the overrides.
+        let swap_u = draw();
+        let first_u = [draw(), draw()];
+        let second_u = [draw(), draw()];
+        let yaw_u = [draw(), draw()];
+        let goal_xy = config.goal_region.lerp([draw(), draw()]);
+        let size_u = draw();
+        let mass_u = draw();
+        let friction_u = draw();
+        let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
+            range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
+        };
+        let r = &config.randomization;
+        let cube = &config.sim.cube;
+        let size = pick(r.cube_size, cube.size, size_u);
+        let mass = pick(r.cube_mass, cube.mass, mass_u);
+        let friction = pick(r.cube_friction, cube.friction, friction_u);
+        // The two halves of the pick region along y, a gap between them.
+        let region = config.pick_region;
+        let middle = (region.low[1] + region.high[1]) / 2.0;
+        let half_gap = START_GAP.min(region.high[1] - region.low[1]) / 2.0;
+        let low_half = |u: [f64; 2]| {
+            [
+                region.low[0] + (region.high[0] - region.low[0]) * u[0],
+                region.low[1] + (middle - half_gap - region.low[1]) * u[1],
+            ]
+        };
+        let high_half = |u: [f64; 2]| {
+            [
+                region.low[0] + (region.high[0] - region.low[0]) * u[0],
+                middle + half_gap + (region.high[1] - middle - half_gap) * u[1],
+            ]
+        };
+        let (first, second) = if swap_u < 0.5 {
+            (low_half(first_u), high_half(second_u))
+        } else {
+            (high_half(first_u), low_half(second_u))
+        };
+        let yaw = |u: f64| {
+            let y = config.cube_yaw_range[0]
+                + (config.cube_yaw_range[1] - config.cube_yaw_range[0]) * u;
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), options.cube_yaw.unwrap_or(y))
+        };
+        let platform_top = config.sim.platform.top_center[2];
+        let bottom_goal = options.goal.map_or(
+            Vector3::new(goal_xy[0], goal_xy[1], platform_top + size / 2.0),
+            Vector3::from,
+        );
+        let top_goal = bottom_goal + Vector3::new(0.0, 0.0, size);
+        let randomised =
+            r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some();
+        let properties = randomised.then_some((size, mass, friction));
+        let [c1, c2] = self.cubes();
+        start.objects.clear();
+        start.objects.push(ObjectStart {
+            object: c1,
+            position: options
+                .cube_position
+                .map_or(Vector3::new(first[0], first[1], size / 2.0), Vector3::from),
+            orientation: yaw(yaw_u[0]),
+            properties,
+        });
+        start.objects.push(ObjectStart {
+            object: c2,
+            position: Vector3::new(second[0], second[1], size / 2.0),
+            orientation: yaw(yaw_u[1]),
+            properties,
+        });
+        start.goal.clear();
+        start.goal.extend_from_slice(bottom_goal.as_slice());
+        start.goal.extend_from_slice(top_goal.as_slice());
+    }
+
+    fn observe(
+        &self,
+        sim: &Simulation,
+        tcp: &BodyState,
+        _goal: &[f64],
+        achieved: &mut [f64],
+        extras: &mut [f64],
+    ) {
+        let per_cube = extras.len() / 2;
+        for (k, cube) in self.cubes().into_iter().enumerate() {
+            let state = sim.object_state(cube);
+            let mut orientation = state.orientation.coords;
+            if orientation.w < 0.0 {
+                orientation = -orientation;
+            }
+            let relative = state.position - tcp.position;
+            achieved[3 * k..3 * k + 3].copy_from_slice(state.position.as_slice());
+            let values: [&[f64]; 5] = [
+                state.position.as_slice(),
+                &[orientation.x, orientation.y, orientation.z, orientation.w],
+                state.linear_velocity.as_slice(),
+                state.angular_velocity.as_slice(),
+                relative.as_slice(),
+            ];
+            let out = &mut extras[k * per_cube..(k + 1) * per_cube];
+            for (o, v) in out.iter_mut().zip(values.iter().flat_map(|s| s.iter())) {
+                *o = *v;
+            }
+        }
+    }
+
+    fn evaluate(&self, view: &View<'_>) -> Verdict {
+        let t = &self.config.thresholds;
+        let [c1, c2] = self.cubes();
+        let touch = [view.sim.object_touch(c1), view.sim.object_touch(c2)];
+        let l = view.layout;
+        let obs = view.observation;
+        let slot = |cube: usize, which: usize| &obs[l.task_slot(cube * PER_CUBE + which)];
+        let grasped = |touch: &ObjectTouch| touch.finger_forces.iter().all(|&f| f >= t.grasp_force);
+        let at_rest = |cube: usize| {
+            norm(slot(cube, LINEAR_VELOCITY)) < t.rest_linear_speed
+                && norm(slot(cube, ANGULAR_VELOCITY)) < t.rest_angular_speed
+        };
+        let is_grasped = grasped(&touch[0]) || grasped(&touch[1]);
+        let is_lifted = (0..2).any(|k| {
+            grasped(&touch[k]) && !touch[k].floor && !touch[k].platform && touch[k].objects == 0
+        });
+        // Reach for the first cube that is not at its goal yet.
+        let achieved = &obs[l.achieved_goal()];
+        let desired = &obs[l.desired_goal()];
+        let first_done =
+            RewardFunction::distance(&achieved[..3], &desired[..3]) < self.config.success_threshold;
+        let reach_distance = norm(slot(usize::from(first_done), RELATIVE_POSITION));
+        let w = &self.config.reward_weights;
+        let context = RewardContext {
+            reach: w.reach as f32 * closeness(reach_distance),
+            grasp: if is_grasped { w.grasp as f32 } else { 0.0 },
+            lift: 0.0,
+            cube_released: !touch[0].robot_touching() && !touch[1].robot_touching(),
+            cube_at_rest: at_rest(0) && at_rest(1),
+            cube_on_platform: touch[0].platform && touch[1].touches(c1),
+            gripper_opening: view.gripper_opening as f32,
+        };
+        let judgement = self.judge(achieved, desired, &context);
+        Verdict {
+            is_success: judgement.is_success,
+            is_grasped,
+            is_lifted,
+            is_placed: judgement.is_placed,
+            goal_distance: judgement.distance,
+            context,
+            terms: judgement.terms,
+            reward: judgement.reward,
+        }
+    }
+
+    fn compute_rewards(
+        &self,
+        achieved: &[f32],
+        desired: &[f32],
+        contexts: &[RewardContext],
+        out: &mut [f32],
+    ) -> Result<()> {
+        if achieved.len() % GOAL_DIM != 0 {
+            return Err(Error::WrongLength {
+                what: "achieved_goal (n x 6)".into(),
+                expected: (achieved.len() / GOAL_DIM + 1) * GOAL_DIM,
+                got: achieved.len(),
+            });
+        }
+        let n = achieved.len() / GOAL_DIM;
+        ensure_len("desired_goal (n x 6)", achieved.len(), desired.len())?;
+        ensure_len("reward output", n, out.len())?;
+        if self.config.reward_type == RewardType::Dense || !contexts.is_empty() {
+            ensure_len("info entries", n, contexts.len())?;
+        }
+        for (name, values) in [("achieved_goal", achieved), ("desired_goal", desired)] {
+            if let Some((i, &v)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                return Err(Error::NonFinite {
+                    what: format!("{name}[{}][{}]", i / GOAL_DIM, i % GOAL_DIM),
+                    value: v as f64,
+                });
+            }
+        }
+        let empty = RewardContext::default();
+        for (i, r) in out.iter_mut().enumerate() {
+            let span = i * GOAL_DIM..(i + 1) * GOAL_DIM;
+            let context = contexts.get(i).unwrap_or(&empty);
+            *r = self
+                .judge(&achieved[span.clone()], &desired[span], context)
+                .reward;
+        }
+        Ok(())
+    }
+}
+
+fn norm(v: &[f32]) -> f64 {
+    v.iter()
+        .map(|&x| (x as f64) * (x as f64))
+        .sum::<f64>()
+        .sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::task::ObservationLayout;
+
+    #[test]
+    fn panda_layout_matches_the_documented_table() {
+        let task = Stack::new(&EnvConfig::default());
+        let layout = ObservationLayout::new(
+            9,
+            task.goal_dim(),
+            task.goal_descriptions(),
+            task.observation_slots(),
+        );
+        assert_eq!(layout.observation_dim(), 57);
+        assert_eq!(layout.flat_dim(), 69);
+        let source = include_str!("stack.rs");
+        for slot in layout.slots() {
+            let range = if slot.range.len() == 1 {
+                format!("| {} |", slot.range.start)
+            } else {
+                format!("| {}..{} |", slot.range.start, slot.range.end)
+            };
+            let row = source
+                .lines()
+                .find(|l| l.contains(&format!("`{}` | {} |", slot.name, slot.range.len())))
+                .unwrap_or_else(|| panic!("no table row for {}", slot.name));
+            assert!(
+                row.contains(&range),
+                "{}: row {row:?} lacks {range}",
+                slot.name
+            );
+        }
+    }
+}
