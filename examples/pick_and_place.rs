@@ -1,18 +1,26 @@
 //! The tutorial's manual pick-and-place on the default scene, printed phase by phase.
 //!
-//! `cargo run --release --example pick_and_place [config.json]`
+//! `cargo run --release --example pick_and_place [config.json] [--attach]`
+//!
+//! `--attach` holds the cube by the classic tutorial's fixed constraint once the fingers have
+//! closed on it (a shortcut: see `GraspMode::Attach`), instead of by friction alone.
 
-use panda_rapier::demo::{self, TutorialSequence};
+use panda_rapier::demo::{self, GraspMode, TutorialSequence};
 use panda_rapier::{SimConfig, Simulation};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // Optional: a JSON file with any SimConfig fields to override (unknown keys are errors).
-    let config = match std::env::args().nth(1) {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let attach = args.iter().any(|a| a == "--attach");
+    let config = match args.iter().find(|a| !a.starts_with("--")) {
         Some(path) => SimConfig::from_json(&std::fs::read_to_string(path)?)?,
         None => SimConfig::default(),
     };
     let mut sim = Simulation::new(config)?;
-    let plan = TutorialSequence::for_scene(&sim);
+    let mut plan = TutorialSequence::for_scene(&sim);
+    if attach {
+        plan.grasp = GraspMode::Attach;
+    }
     let start = sim.object_state(sim.object("cube").unwrap()).position;
     println!(
         "panda_rapier: Franka Panda, cube {:.0} mm / {} kg at ({:.3}, {:.3}, {:.3}), physics dt {} s x {} substeps, {} solver iterations",
@@ -47,8 +55,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("final cube centre ({:.4}, {:.4}, {:.4}), {:.1} mm from the target, speed {:.4} m/s, on the platform: {}",
         p.x, p.y, p.z, report.placement_error * 1e3, report.final_speed, report.on_platform);
     println!(
-        "constraints between hand and cube: {}; non-finite state seen: {}",
-        report.max_constraints_on_cube, report.non_finite_seen
+        "constraints between hand and cube: {} ({} grasp); non-finite state seen: {}",
+        report.max_constraints_on_cube,
+        if attach { "attach" } else { "friction" },
+        report.non_finite_seen
     );
     println!(
         "largest IK residual {:.1e} m, largest TCP tracking gap {:.1} mm",

@@ -26,13 +26,34 @@ def test_gymnasium_check_env(env_id: str) -> None:
     env.close()
 
 
+#: Each task's id prefix, goal size, observation size and episode length.
+TASKS = {
+    "PickAndPlace": (3, 41, 70),
+    "Reach": (3, 25, 50),
+    "Lift": (3, 41, 70),
+    "Stack": (6, 57, 120),
+}
+
+
 def test_env_ids_and_spaces() -> None:
-    assert panda_rapier.ENV_IDS == (
-        "panda_rapier/PickAndPlace-v0",
-        "panda_rapier/PickAndPlaceDense-v0",
-        "panda_rapier/PickAndPlaceJoints-v0",
-        "panda_rapier/PickAndPlaceJointsDense-v0",
+    assert panda_rapier.ENV_IDS == tuple(
+        f"panda_rapier/{task}{variant}-v0"
+        for task in TASKS
+        for variant in ("", "Dense", "Joints", "JointsDense")
     )
+    for task, (goal, observation, steps) in TASKS.items():
+        for variant, action in (("", 4), ("JointsDense", 8)):
+            env = gym.make(f"panda_rapier/{task}{variant}-v0")
+            assert env.action_space.shape == (action,)
+            assert env.spec is not None and env.spec.max_episode_steps == steps
+            shapes = {k: s.shape for k, s in env.observation_space.spaces.items()}  # type: ignore[attr-defined]
+            assert shapes == {
+                "achieved_goal": (goal,),
+                "desired_goal": (goal,),
+                "observation": (observation,),
+            }, task
+            obs, _ = env.reset(seed=0)
+            assert env.observation_space.contains(obs)
     ee = gym.make("panda_rapier/PickAndPlace-v0")
     joints = gym.make("panda_rapier/PickAndPlaceJoints-v0")
     assert ee.action_space.shape == (4,) and joints.action_space.shape == (8,)
@@ -113,10 +134,11 @@ def test_compute_reward_matches_step_reward(env_id: str, rng: np.random.Generato
         np.stack(achieved), np.stack(achieved), np.array(infos)
     )
     assert np.all(relabelled >= np.array(rewards))
-    # Leading shape is kept (n_envs, batch, 3).
+    # Leading shape is kept (n_envs, batch, goal size).
+    goal = obs["achieved_goal"].shape[-1]
     shaped = env.unwrapped.compute_reward(
-        np.stack(achieved).reshape(6, 10, 3),
-        np.stack(desired).reshape(6, 10, 3),
+        np.stack(achieved).reshape(6, 10, goal),
+        np.stack(desired).reshape(6, 10, goal),
         np.array(infos).reshape(6, 10),
     )
     np.testing.assert_array_equal(shaped.reshape(-1), batch)

@@ -242,6 +242,7 @@ impl Simulation {
             time: 0.0,
             steps: 0,
             torques_applied: false,
+            attachments: Vec::new(),
         };
         sim.set_joint_positions(&q0)?;
         Ok(sim)

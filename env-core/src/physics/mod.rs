@@ -9,7 +9,7 @@
 //! | concern | file | what |
 //! |---|---|---|
 //! | building | `build.rs` | [`Simulation::new`], [`Simulation::with_model`], [`Simulation::with_scene`] |
-//! | scene | `scene.rs` | [`Scene`], [`ObjectSpec`], [`ObjectId`]; object poses and properties |
+//! | scene | `scene.rs` | [`Scene`], [`ObjectSpec`], [`ObjectId`]; object poses and properties; the `attach` shortcut grasp |
 //! | control | `control.rs` | [`JointControl`]; joint commands, the gripper, teleporting the robot |
 //! | state | `state.rs` | [`BodyState`], [`JointState`], [`LinkState`]; joints, links, TCP, objects |
 //! | contacts | `contacts.rs` | [`ObjectContacts`], [`ObjectTouch`]: what touches an object |
@@ -31,7 +31,9 @@ mod state;
 mod visuals;
 
 use nalgebra::Isometry3;
-use rapier3d::dynamics::{JointAxis, Multibody, MultibodyIndex, RigidBodyHandle};
+use rapier3d::dynamics::{
+    ImpulseJointHandle, JointAxis, Multibody, MultibodyIndex, RigidBodyHandle,
+};
 use rapier3d::geometry::{ColliderHandle, Group};
 use rapier3d::pipeline::PhysicsWorld;
 
@@ -132,6 +134,8 @@ pub struct Simulation {
     steps: u64,
     /// Whether the last step applied joint torques as body forces (they must be cleared).
     torques_applied: bool,
+    /// Objects held to the hand by a fixed joint ([`Simulation::attach`]), with the joint.
+    attachments: Vec<(ObjectId, ImpulseJointHandle)>,
 }
 
 impl std::fmt::Debug for Simulation {

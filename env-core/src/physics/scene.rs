@@ -5,7 +5,9 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rapier3d::geometry::SharedShape;
 use rapier3d::math::Vector;
 
-use super::convert::pose_from_na;
+use rapier3d::dynamics::FixedJointBuilder;
+
+use super::convert::{pose_from_na, pose_to_na};
 use super::{BodyState, SceneObject, Simulation};
 use crate::config::{non_negative, positive, SimConfig};
 use crate::error::{ensure_all_finite, Error, Result};
@@ -204,5 +206,63 @@ impl Simulation {
             }
             None => (f64::NAN, f64::NAN, f64::NAN),
         }
+    }
+}
+
+impl Simulation {
+    /// The shortcut grasp of the classic PyBullet tutorial: holds `object` rigidly to the hand
+    /// (the fingers' parent link), where it is relative to the hand now, by a fixed joint, until
+    /// [`Simulation::detach`]. Unlike the friction grasp every environment uses, nothing has to
+    /// squeeze the object and it cannot slip; it is for demonstrations of the tutorial
+    /// (`TutorialSequence::grasp`), not for learning manipulation. Attaching an attached object
+    /// again does nothing.
+    pub fn attach(&mut self, object: ObjectId) -> Result<()> {
+        let body = self.scene_object(object)?.body;
+        if self.is_attached(object) {
+            return Ok(());
+        }
+        let hand = self
+            .gripper
+            .as_ref()
+            .and_then(|g| {
+                let link = self.model.joints()[g.joint].parent_link_index;
+                self.link_bodies[link]
+            })
+            .ok_or_else(|| Error::JointNotCommandable {
+                name: "gripper".into(),
+                reason: "this robot has no hand to attach objects to".into(),
+            })?;
+        let (Some(hand_body), Some(object_body)) =
+            (self.world.bodies.get(hand), self.world.bodies.get(body))
+        else {
+            return Err(Error::UnknownLink {
+                name: format!("object #{}", object.0),
+                known: "the world's bodies".into(),
+            });
+        };
+        let relative =
+            pose_to_na(hand_body.position()).inverse() * pose_to_na(object_body.position());
+        let joint = FixedJointBuilder::new()
+            .local_frame1(pose_from_na(&relative))
+            .contacts_enabled(false)
+            .build();
+        let handle = self.world.impulse_joints.insert(hand, body, joint, true);
+        self.attachments.push((object, handle));
+        Ok(())
+    }
+
+    /// Lets go of an object held by [`Simulation::attach`] (nothing happens if it is not).
+    pub fn detach(&mut self, object: ObjectId) -> Result<()> {
+        self.scene_object(object)?;
+        if let Some(i) = self.attachments.iter().position(|(o, _)| *o == object) {
+            let (_, handle) = self.attachments.remove(i);
+            self.world.impulse_joints.remove(handle, true);
+        }
+        Ok(())
+    }
+
+    /// Whether `object` is held by [`Simulation::attach`].
+    pub fn is_attached(&self, object: ObjectId) -> bool {
+        self.attachments.iter().any(|(o, _)| *o == object)
     }
 }

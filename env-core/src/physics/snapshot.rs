@@ -1,9 +1,11 @@
 //! Saving and restoring the whole dynamic state of a world, bit for bit.
 
-use rapier3d::dynamics::{ImpulseJointSet, IslandManager, MultibodyJointSet, RigidBodySet};
+use rapier3d::dynamics::{
+    ImpulseJointHandle, ImpulseJointSet, IslandManager, MultibodyJointSet, RigidBodySet,
+};
 use rapier3d::geometry::{BroadPhaseBvh, ColliderSet, NarrowPhase};
 
-use super::{Arm, JointControl, Scene, Simulation};
+use super::{Arm, JointControl, ObjectId, Scene, Simulation};
 use crate::config::SimConfig;
 use crate::error::{Error, Result};
 
@@ -24,6 +26,7 @@ pub struct SimSnapshot {
     arm: Arm,
     controls: Vec<JointControl>,
     torques_applied: bool,
+    attachments: Vec<(ObjectId, ImpulseJointHandle)>,
     time: f64,
     steps: u64,
 }
@@ -53,6 +56,7 @@ impl Simulation {
             arm: self.arm.clone(),
             controls: self.controls.clone(),
             torques_applied: self.torques_applied,
+            attachments: self.attachments.clone(),
             time: self.time,
             steps: self.steps,
         }
@@ -81,6 +85,7 @@ impl Simulation {
         self.arm.clone_from(&snapshot.arm);
         self.controls.clone_from(&snapshot.controls);
         self.torques_applied = snapshot.torques_applied;
+        self.attachments.clone_from(&snapshot.attachments);
         self.time = snapshot.time;
         self.steps = snapshot.steps;
         Ok(())

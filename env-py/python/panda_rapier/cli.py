@@ -58,7 +58,7 @@ def _size(text: str) -> tuple[int, int]:
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="panda-rapier",
-        description="panda_rapier: Franka Panda pick-and-place on rapier3d.",
+        description="panda_rapier: Franka Panda manipulation tasks on rapier3d.",
     )
     parser.add_argument("--version", action="version", version=f"panda-rapier {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -78,6 +78,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     evaluation.add_argument(
         "--env-id",
+        "--env",
         choices=ENV_IDS,
         default=None,
         help=f"environment (default: run.json beside the model, else {DEFAULT_ENV_ID})",
@@ -130,7 +131,7 @@ def _parser() -> argparse.ArgumentParser:
         "interleaved round by round; prints medians, ratios against the peers and the accuracy "
         "side (grasp slip, tracking error, scripted placed rate).",
     )
-    bench.add_argument("--env-id", choices=ENV_IDS, default=DEFAULT_ENV_ID)
+    bench.add_argument("--env-id", "--env", choices=ENV_IDS, default=DEFAULT_ENV_ID)
     bench.add_argument(
         "--arm",
         choices=("dynamic", "kinematic"),
