@@ -106,6 +106,9 @@ pub struct ScriptedParams {
     /// `stack`: horizontal distance from the top cube to the bottom one below which the top
     /// cube is lowered onto it (tighter than `place_tolerance`: an overhanging cube slides off).
     pub stack_place_tolerance: f64,
+    /// `stack`: within this horizontal distance of the bottom cube, the hand rises above it
+    /// before heading for the other cube.
+    pub stack_clear_distance: f64,
 }
 
 impl Default for ScriptedParams {
@@ -123,8 +126,9 @@ impl Default for ScriptedParams {
             release_height: 0.004,
             arrival_distance: 0.05,
             retreat_height: 0.1,
-            stack_hover_height: 0.1,
+            stack_hover_height: 0.18,
             stack_place_tolerance: 0.006,
+            stack_clear_distance: 0.1,
         }
     }
 }
@@ -298,16 +302,24 @@ impl ScriptedPolicy {
             if self.config.task == TaskKind::Stack {
                 let cube2 = vector_at(observation, &(s.achieved.start + 3..s.achieved.end));
                 let goal2 = vector_at(observation, &(s.desired.start + 3..s.desired.end));
-                // The bottom cube is done once it is at its goal and the hand is not at it (still
-                // holding it, or letting go): from there the hand rises before it heads for the
-                // other cube, and carrying that one over the stack does not count as undone.
-                let at_first = horizontal(cube - tcp) < p.in_hand_tolerance + 0.01
-                    && tcp.z - cube.z < p.in_hand_height + 0.02;
-                let first_done = (cube - goal).norm() < self.config.success_threshold && !at_first;
+                // The bottom cube is done once it is at its goal and the hand is not low beside
+                // it (still holding it, letting go, or rising): a hand heading sideways for the
+                // other cube from there would sweep the bottom one off the platform. Carrying
+                // the other cube onto the stack does not count as undone.
+                let holding_second = horizontal(cube2 - tcp) < p.in_hand_tolerance
+                    && (cube2.z - tcp.z).abs() < p.in_hand_height;
+                let low_at_first = horizontal(cube - tcp) < p.stack_clear_distance
+                    && tcp.z - cube.z < p.in_hand_height + 0.03;
+                let first_done = (cube - goal).norm() < self.config.success_threshold
+                    && (holding_second || !low_at_first);
                 if first_done {
+                    // Put the top cube where the bottom one is, not where its goal is: a stack
+                    // must line up, and the bottom cube is within the threshold of its goal.
+                    let on_top =
+                        Vector3::new(cube.x, cube.y, goal2.z.max(cube.z + 2.0 * self.cube_half));
                     (
                         cube2,
-                        goal2,
+                        on_top,
                         cube.z + self.cube_half,
                         p.stack_hover_height,
                         true,
