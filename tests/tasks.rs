@@ -207,15 +207,33 @@ fn every_task_lays_its_observation_out_as_its_schema_says() {
 fn expert_rate(task: TaskKind, mode: ControlMode, arm: ArmFidelity, episodes: usize) -> f64 {
     let mut config = config(task, mode, RewardType::Sparse);
     config.arm = arm;
-    if task == TaskKind::Reach {
-        config.max_episode_steps = Some(50);
-    }
+    config.max_episode_steps = Some(match task {
+        TaskKind::Reach => 50,
+        TaskKind::Stack => 120,
+        _ => 70,
+    });
     let report = evaluate(&config, episodes, 25, Some(2), 0, |_| {}).unwrap();
     if task == TaskKind::PickAndPlace {
         report.placed_rate()
     } else {
         report.success_rate()
     }
+}
+
+#[test]
+fn the_scripted_expert_stacks_most_episodes() {
+    // Below the 99 % / 95 % bar of the other tasks (1,000 episodes: 94.5 % ee, 96.6 % joints,
+    // dynamic arm): the top cube sometimes slides off the stack or falls off the platform.
+    // This guards what it reaches.
+    let ee = expert_rate(TaskKind::Stack, ControlMode::Ee, ArmFidelity::Dynamic, 100);
+    let joints = expert_rate(
+        TaskKind::Stack,
+        ControlMode::Joints,
+        ArmFidelity::Dynamic,
+        100,
+    );
+    assert!(ee >= 0.85, "stack ee: {ee}");
+    assert!(joints >= 0.85, "stack joints: {joints}");
 }
 
 #[test]

@@ -127,7 +127,7 @@ impl Default for ScriptedParams {
             arrival_distance: 0.05,
             retreat_height: 0.1,
             stack_hover_height: 0.18,
-            stack_place_tolerance: 0.006,
+            stack_place_tolerance: 0.003,
             stack_clear_distance: 0.1,
         }
     }
