@@ -20,10 +20,16 @@ TASK_EPISODE_STEPS: dict[str, int] = {
     "pick_and_place": MAX_EPISODE_STEPS,
     "reach": 50,
     "lift": MAX_EPISODE_STEPS,
+    "push": MAX_EPISODE_STEPS,
 }
 
 #: Id prefix of each task.
-_TASK_NAMES = {"pick_and_place": "PickAndPlace", "reach": "Reach", "lift": "Lift"}
+_TASK_NAMES = {
+    "pick_and_place": "PickAndPlace",
+    "reach": "Reach",
+    "lift": "Lift",
+    "push": "Push",
+}
 
 _VARIANTS: dict[str, dict[str, Any]] = {
     f"panda_rapier/{name}{dense}-v0": {
