@@ -1,9 +1,13 @@
 //! Prints what the scripted policy sees and does in one seeded episode, step by step.
 //!
-//! `cargo run --release --example scripted_trace -- [seed] [ee|joints] [max_episode_steps] [env_index]`
+//! `cargo run --release --example scripted_trace -- [seed] [ee|joints] [max_episode_steps] [env_index] [task] [arm]`
+//!
+//! `task` is a [`TaskKind`] name (default `pick_and_place`), `arm` `dynamic` (default) or
+//! `kinematic`.
 
 use panda_rapier::policies::ScriptedPolicy;
-use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions};
+use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions, TaskKind};
+use panda_rapier::ArmFidelity;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -13,9 +17,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         _ => ControlMode::Ee,
     };
     let limit: u32 = args.get(2).map_or(Ok(50), |s| s.parse())?;
+    let task = match args.get(4) {
+        None => TaskKind::PickAndPlace,
+        Some(name) => TaskKind::ALL
+            .into_iter()
+            .find(|t| t.as_str() == name)
+            .ok_or_else(|| format!("unknown task {name}"))?,
+    };
+    let arm = match args.get(5).map(String::as_str) {
+        Some("kinematic") => ArmFidelity::Kinematic,
+        _ => ArmFidelity::Dynamic,
+    };
     let config = EnvConfig {
+        task,
         control_mode: mode,
         max_episode_steps: Some(limit),
+        arm,
         ..EnvConfig::default()
     };
     let index: u64 = args.get(3).map_or(Ok(0), |s| s.parse())?;
@@ -28,13 +45,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let obs = env.observation().to_vec();
         let phase = policy.act(&obs, &mut action)?;
         let t = env.step(&action)?;
-        let get = |name: &str| obs[layout.slot(name).unwrap()].to_vec();
+        let get = |name: &str| layout.slot(name).map_or_else(Vec::new, |r| obs[r].to_vec());
         println!(
-            "{step:3} {:9} a {:5.2?} tcp {:6.3?} cube {:6.3?} rel {:6.3?} w {:.4} grasp {} placed {} d {:.3}",
+            "{step:3} {:9} a {:5.2?} tcp {:6.3?} cube {:6.3?} q {:5.2?} rel {:6.3?} w {:.4} grasp {} placed {} d {:.3}",
             phase.as_str(),
             action,
             get("tcp_position"),
             get("cube_position"),
+            get("cube_orientation"),
             get("cube_relative_position"),
             get("gripper_width")[0],
             t.info.is_grasped,
