@@ -11,7 +11,9 @@ use panda_rapier_core::task::observation::{
     GRIPPER_WIDTH, JOINT_POSITIONS, JOINT_VELOCITIES, TCP_POSITION, TCP_VELOCITY,
 };
 use panda_rapier_core::task::{make_task, ControlMode, EnvConfig, ObservationLayout, TaskKind};
-use panda_rapier_core::{Controller, Error, IkOptions, IkWorkspace, Result, Robot, RobotModel};
+use panda_rapier_core::{
+    ArmFidelity, Controller, Error, IkOptions, IkWorkspace, Result, Robot, RobotModel,
+};
 
 /// What the controller is doing, recognised from the observation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -116,6 +118,15 @@ pub struct ScriptedParams {
     /// meets those and the cube tips over (200 episodes, `ee` control, dynamic arm: 67 %
     /// success at 0 mm, 97-99 % at 12-14 mm, before the `push_upright` recovery existed).
     pub push_height: f64,
+    /// `push`: with the dynamic arm, the final descent behind the cube, from this height above
+    /// the passing height down, goes at...
+    pub push_descent_height: f64,
+    /// `push`: ...this speed (a fraction of a full action).
+    pub push_descent_speed: f64,
+    /// `push`: how much of the TCP's shortfall below the pushing height is added to its target.
+    pub push_sag_gain: f64,
+    /// `push`: the largest shortfall (m) corrected.
+    pub push_sag_limit: f64,
     /// `push`: the hand lets go of a cube tilted more than this (rad)...
     pub push_upright: f64,
     /// `push`: ...or pressed this far (m) into the floor.
@@ -154,7 +165,11 @@ impl Default for ScriptedParams {
             arrival_distance: 0.05,
             retreat_height: 0.1,
             push_clearance: 0.03,
-            push_height: 0.014,
+            push_height: 0.008,
+            push_descent_height: 0.03,
+            push_descent_speed: 0.35,
+            push_sag_gain: 1.0,
+            push_sag_limit: 0.01,
             push_upright: 0.25,
             push_sink: 0.005,
             push_height_tolerance: 0.008,
@@ -530,9 +545,14 @@ impl ScriptedPolicy {
             } else {
                 1.0
             };
-            return decision(Phase::Push, at(target, push_z), 1.0, gain);
+            // The pushing arm sags under the contact (the dynamic arm by several millimetres):
+            // aim above the pushing height by the shortfall, as a proportional correction.
+            let sag = (push_z - tcp.z).clamp(0.0, p.push_sag_limit);
+            let z = push_z + p.push_sag_gain * sag / gain;
+            return decision(Phase::Push, at(target, z), 1.0, gain);
         }
-        if closed && low && behind {
+        // Backing straight off from a cube the hand has not passed: also free.
+        if closed && low && (behind || (along < -extent && across.abs() < extent)) {
             // Behind the cube but off the line, or not down yet: back off and line up at
             // pushing height before touching the cube (coming down on it tips it over).
             return decision(Phase::Align, at(behind_point, push_z), 1.0, p.arrival_gain);
@@ -558,10 +578,18 @@ impl ScriptedPolicy {
         if !closed {
             z = z.max(over + 0.01);
         }
+        // Slow down for the last few centimetres: the dynamic arm overshoots downwards
+        // otherwise (the kinematic one follows its targets).
+        let dynamic = self.config.arm == ArmFidelity::Dynamic;
+        let speed = if dynamic && behind && tcp.z < over + p.push_descent_height {
+            p.push_descent_speed
+        } else {
+            1.0
+        };
         decision(
             Phase::Align,
             at(behind_point, z.min(tcp.z.max(over + 0.01))),
-            1.0,
+            speed,
             1.0,
         )
     }

@@ -324,7 +324,7 @@ pub struct EnvConfig {
     pub lift_height: Range,
     /// `push`: where goals are drawn, on the floor. The default lies beside `pick_region`
     /// (towards +y) and 5 cm clear of it, so the cube starts at least `success_threshold` from
-    /// the goal and is pushed 0.05 to 0.5 m (0.25 m on average).
+    /// the goal and is pushed 0.05 to 0.49 m (0.26 m on average).
     pub push_goal_region: Region,
     /// TCP displacement (m) per step at action 1.0 (`ee` control).
     pub ee_step: f64,
