@@ -555,7 +555,15 @@ impl ScriptedPolicy {
         if closed && low && (behind || (along < -extent && across.abs() < extent)) {
             // Behind the cube but off the line, or not down yet: back off and line up at
             // pushing height before touching the cube (coming down on it tips it over).
-            return decision(Phase::Align, at(behind_point, push_z), 1.0, p.arrival_gain);
+            // Still touching the cube: straight back first (sideways, the fingers would drag
+            // it along and tip it).
+            let touching = along > -(extent + p.pusher_half_width + 0.5 * p.push_gap);
+            let target = if touching {
+                tcp.xy() - u * p.push_gap
+            } else {
+                behind_point
+            };
+            return decision(Phase::Align, at(target, push_z), 1.0, p.arrival_gain);
         }
         if low && !behind {
             // Beside or in front of the cube, or not closed yet: up before anything else.
