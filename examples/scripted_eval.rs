@@ -3,7 +3,7 @@
 //!
 //! `cargo run --release --example scripted_eval -- [episodes] [ee|joints] [max_episode_steps] [num_envs] [task] [arm]`
 //!
-//! `task` is a [`TaskKind`] name (`pick_and_place`, `reach`, `lift`), `arm` `dynamic` or
+//! `task` is a [`TaskKind`] name (`pick_and_place`, `reach`, `lift`, `push`), `arm` `dynamic` or
 //! `kinematic`.
 
 use std::time::Instant;

@@ -1,9 +1,13 @@
 //! Prints what the scripted policy sees and does in one seeded episode, step by step.
 //!
-//! `cargo run --release --example scripted_trace -- [seed] [ee|joints] [max_episode_steps] [env_index] [task]`
+//! `cargo run --release --example scripted_trace -- [seed] [ee|joints] [max_episode_steps] [env_index] [task] [arm]`
+//!
+//! `task` is a [`TaskKind`] name (default `pick_and_place`), `arm` `dynamic` (default) or
+//! `kinematic`.
 
 use panda_rapier::policies::ScriptedPolicy;
 use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions, TaskKind};
+use panda_rapier::ArmFidelity;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -20,10 +24,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .find(|t| t.as_str() == name)
             .ok_or_else(|| format!("unknown task {name}"))?,
     };
+    let arm = match args.get(5).map(String::as_str) {
+        Some("kinematic") => ArmFidelity::Kinematic,
+        _ => ArmFidelity::Dynamic,
+    };
     let config = EnvConfig {
         task,
         control_mode: mode,
         max_episode_steps: Some(limit),
+        arm,
         ..EnvConfig::default()
     };
     let index: u64 = args.get(3).map_or(Ok(0), |s| s.parse())?;

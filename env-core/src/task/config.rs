@@ -45,15 +45,19 @@ pub enum TaskKind {
     Lift,
     /// Put one cube on the platform and the other on top of it ([`crate::task::Stack`]).
     Stack,
+    /// Push the cube along the floor to a goal on the floor, the fingers closed
+    /// ([`crate::task::Push`]).
+    Push,
 }
 
 impl TaskKind {
     /// Every task, in order.
-    pub const ALL: [TaskKind; 4] = [
+    pub const ALL: [TaskKind; 5] = [
         TaskKind::PickAndPlace,
         TaskKind::Reach,
         TaskKind::Lift,
         TaskKind::Stack,
+        TaskKind::Push,
     ];
 
     /// The name used in configs and on the command line.
@@ -63,6 +67,7 @@ impl TaskKind {
             TaskKind::Reach => "reach",
             TaskKind::Lift => "lift",
             TaskKind::Stack => "stack",
+            TaskKind::Push => "push",
         }
     }
 }
@@ -211,6 +216,10 @@ impl Default for TaskThresholds {
 ///   "goal_air_height": [0.05, 0.2],
 ///   "reach_goal_region": [[0.35, -0.25, 0.1], [0.65, 0.25, 0.4]],
 ///   "lift_height": [0.05, 0.25],
+///   "push_goal_region": {
+///     "low": [0.4, 0.05],
+///     "high": [0.6, 0.25]
+///   },
 ///   "ee_step": 0.05,
 ///   "joint_step": 0.05,
 ///   "ee_workspace": [[0.15, -0.6, 0.0], [0.85, 0.6, 0.6]],
@@ -317,6 +326,10 @@ pub struct EnvConfig {
     /// `lift`: height range (m) of the goal above the cube's resting centre, straight above
     /// where it starts.
     pub lift_height: Range,
+    /// `push`: where goals are drawn, on the floor. The default lies beside `pick_region`
+    /// (towards +y) and 5 cm clear of it, so the cube starts at least `success_threshold` from
+    /// the goal and is pushed 0.05 to 0.49 m (0.26 m on average).
+    pub push_goal_region: Region,
     /// TCP displacement (m) per step at action 1.0 (`ee` control).
     pub ee_step: f64,
     /// Joint target displacement (rad) per step at action 1.0 (`joints` control).
@@ -324,8 +337,8 @@ pub struct EnvConfig {
     /// Box (m, world frame) that `ee` targets are clipped into: `[low, high]` per axis as
     /// `[[xlow, ylow, zlow], [xhigh, yhigh, zhigh]]`.
     pub ee_workspace: [[f64; 3]; 2],
-    /// Lowest height (m) of an `ee` target above the surface under it (the floor, or the
-    /// platform's top within `ee_surface_margin` of its footprint). The fingertips reach 8 mm
+    /// Lowest height (m) of an `ee` target above the surface under it (the floor, or, in a task
+    /// whose scene has the platform, its top within `ee_surface_margin` of its footprint). The fingertips reach 8 mm
     /// below the TCP; fingertips dragged along a surface made a finger spike to 10-40 m/s in
     /// random-action runs (one in 20,000 steps exceeded the blow-up threshold), and 0.02 m
     /// removed that, as a real robot's workspace limits would. The physics itself still lets
@@ -372,6 +385,10 @@ impl Default for EnvConfig {
             goal_air_height: [0.05, 0.2],
             reach_goal_region: [[0.35, -0.25, 0.1], [0.65, 0.25, 0.4]],
             lift_height: [0.05, 0.25],
+            push_goal_region: Region {
+                low: [0.4, 0.05],
+                high: [0.6, 0.25],
+            },
             ee_step: 0.05,
             joint_step: 0.05,
             ee_workspace: [[0.15, -0.6, 0.0], [0.85, 0.6, 0.6]],
@@ -444,13 +461,21 @@ impl EnvConfig {
         Ok(sim)
     }
 
+    /// Whether the task's scene has the platform ([`crate::task::Task::scene`]): only
+    /// `pick_and_place`'s does.
+    pub fn has_platform(&self) -> bool {
+        matches!(self.task, TaskKind::PickAndPlace | TaskKind::Stack)
+    }
+
     /// The height (m) of the surface under the point (x, y) as `ee` targets see it: the
-    /// platform's top near its footprint (see `ee_surface_margin`), else the floor.
+    /// platform's top near its footprint (see `ee_surface_margin`) if the task has the
+    /// platform, else the floor.
     pub fn surface_height(&self, x: f64, y: f64) -> f64 {
         let p = &self.sim.platform;
         let reach_x = p.size[0] / 2.0 + self.ee_surface_margin;
         let reach_y = p.size[1] / 2.0 + self.ee_surface_margin;
-        if (x - p.top_center[0]).abs() <= reach_x && (y - p.top_center[1]).abs() <= reach_y {
+        let over = (x - p.top_center[0]).abs() <= reach_x && (y - p.top_center[1]).abs() <= reach_y;
+        if self.has_platform() && over {
             p.top_center[2]
         } else {
             0.0
@@ -471,6 +496,7 @@ impl EnvConfig {
         non_negative("ee_surface_margin", self.ee_surface_margin)?;
         self.pick_region.validate("pick_region")?;
         self.goal_region.validate("goal_region")?;
+        self.push_goal_region.validate("push_goal_region")?;
         range("cube_yaw_range", self.cube_yaw_range, f64::NEG_INFINITY)?;
         range("goal_air_height", self.goal_air_height, 0.0)?;
         range("lift_height", self.lift_height, 0.0)?;

@@ -6,8 +6,9 @@
 //! A task decides the scene (platform and objects), how an episode starts, its goals, the
 //! observation entries it adds after the robot's, and its reward and success predicates. The
 //! robot, its action controller, episode bookkeeping, blow-up detection and snapshots are the
-//! environment's, the same for every task. The tasks: [`PickAndPlace`], [`Reach`], [`Lift`], [`Stack`];
-//! adding one is a new file here implementing [`Task`] and an entry in [`TaskKind`].
+//! environment's, the same for every task. The tasks: [`PickAndPlace`], [`Reach`], [`Lift`],
+//! [`Stack`], [`Push`]; adding one is a new file here implementing [`Task`] and an entry in
+//! [`TaskKind`].
 
 pub mod config;
 pub mod env;
@@ -15,6 +16,7 @@ pub mod episode;
 pub mod lift;
 pub mod observation;
 pub mod pick_and_place;
+pub mod push;
 pub mod reach;
 pub mod reward;
 pub mod stack;
@@ -32,6 +34,7 @@ pub use observation::{
     REWARD_CONTEXT_KEYS,
 };
 pub use pick_and_place::PickAndPlace;
+pub use push::Push;
 pub use reach::Reach;
 pub use reward::{RewardContext, RewardFunction, RewardTerms, RewardWeights};
 pub use stack::Stack;
@@ -137,5 +140,6 @@ pub fn make_task(config: &EnvConfig) -> Box<dyn Task> {
         TaskKind::Reach => Box::new(Reach::new(config)),
         TaskKind::Lift => Box::new(Lift::new(config)),
         TaskKind::Stack => Box::new(Stack::new(config)),
+        TaskKind::Push => Box::new(Push::new(config)),
     }
 }

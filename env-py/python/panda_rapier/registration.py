@@ -21,6 +21,7 @@ TASK_EPISODE_STEPS: dict[str, int] = {
     "reach": 50,
     "lift": MAX_EPISODE_STEPS,
     "stack": 120,
+    "push": MAX_EPISODE_STEPS,
 }
 
 #: Id prefix of each task.
@@ -29,6 +30,7 @@ _TASK_NAMES = {
     "reach": "Reach",
     "lift": "Lift",
     "stack": "Stack",
+    "push": "Push",
 }
 
 _VARIANTS: dict[str, dict[str, Any]] = {

@@ -1,0 +1,249 @@
+//! [`Push`]: push the cube along the floor to a goal on the floor (panda-gym's PandaPush,
+//! Gymnasium-Robotics' FetchPush).
+//!
+//! # Observation
+//!
+//! Pick-and-place's slots (for the Panda `observation` has 41 entries and the flat vector 47):
+//!
+//! | flat index | dict key / `observation` index | slot | size | meaning |
+//! |---|---|---|---|---|
+//! | 0..3 | `achieved_goal` | `achieved_goal` | 3 | cube centre position |
+//! | 3..6 | `desired_goal` | `desired_goal` | 3 | goal position for the cube centre, on the floor |
+//! | 6..15 | `observation` 0..9 | `joint_positions` | 9 | arm joints 1-7 (rad), finger joints 1-2 (m) |
+//! | 15..24 | `observation` 9..18 | `joint_velocities` | 9 | their velocities |
+//! | 24..27 | `observation` 18..21 | `tcp_position` | 3 | tool centre point (between the fingertips) |
+//! | 27..30 | `observation` 21..24 | `tcp_velocity` | 3 | its linear velocity |
+//! | 30 | `observation` 24 | `gripper_width` | 1 | opening between the finger pads (m) |
+//! | 31..34 | `observation` 25..28 | `cube_position` | 3 | cube centre (same as `achieved_goal`) |
+//! | 34..38 | `observation` 28..32 | `cube_orientation` | 4 | unit quaternion x, y, z, w with w >= 0 |
+//! | 38..41 | `observation` 32..35 | `cube_linear_velocity` | 3 | cube centre velocity |
+//! | 41..44 | `observation` 35..38 | `cube_angular_velocity` | 3 | cube angular velocity |
+//! | 44..47 | `observation` 38..41 | `cube_relative_position` | 3 | cube centre minus TCP position |
+//!
+//! # Starting state
+//! The cube on the floor at a uniform position in `pick_region` with a uniform yaw in
+//! `cube_yaw_range`; the goal uniform in `push_goal_region`, at the height of the centre of a
+//! cube resting on the floor. The defaults keep the two regions 5 cm apart, so no episode starts
+//! solved. The scene has no platform (and `ee` targets keep `ee_surface_clearance` above the
+//! floor everywhere).
+//!
+//! # The gripper
+//! The action spaces are every task's (4-D `ee`, 8-D `joints`, the last entry the gripper
+//! command); the task does not lock the fingers, unlike panda-gym's Push. Pushing is meant with
+//! the fingers closed (command -1), as the scripted expert does; a policy that opens them may
+//! also grasp the cube, which the rewards neither ask for nor pay.
+//!
+//! # Rewards
+//! `sparse`: -1 until the cube is within `success_threshold` of the goal, then 0. `dense`:
+//! pick-and-place's terms ([`crate::task::reward`]) without the ones that pay for holding the
+//! cube: `reach` (the TCP near the cube) plus `carry` (the cube near the goal); `grasp`, `lift`
+//! and `place` are 0 (the info's `grasp` and `lift` reward inputs too), `release` pays as in
+//! pick-and-place (off by default). `reach` and the gripper opening do not depend on the goal,
+//! `carry` and `release` are recomputed from the goals, so relabelled goals get exactly the
+//! reward the environment would have given. `is_success` is the only predicate that matters
+//! here; `is_grasped` and `is_lifted` are reported as in pick-and-place, `is_placed` is never
+//! true (there is no platform).
+
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+
+use super::{EnvConfig, EpisodeStart, ObjectStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use crate::error::Result;
+use crate::physics::{BodyState, ObjectSpec, Scene, Simulation};
+use crate::task::pick_and_place::PickAndPlace;
+use crate::task::reward::RewardContext;
+
+/// Push the cube to a goal on the floor (see the module documentation).
+#[derive(Debug, Clone)]
+pub struct Push {
+    config: EnvConfig,
+    /// Observation, predicates and the reward function are pick-and-place's.
+    cube_task: PickAndPlace,
+}
+
+impl Push {
+    /// The task as `config` sets it up.
+    pub fn new(config: &EnvConfig) -> Self {
+        Self {
+            config: config.clone(),
+            cube_task: PickAndPlace::new(config),
+        }
+    }
+}
+
+impl Task for Push {
+    fn name(&self) -> &'static str {
+        "push"
+    }
+
+    fn scene(&self, config: &EnvConfig) -> Scene {
+        let sim = &config.sim;
+        Scene {
+            platform: false,
+            objects: vec![ObjectSpec::cube("cube", sim, sim.cube.position)],
+        }
+    }
+
+    fn bind(&mut self, sim: &Simulation) -> Result<()> {
+        self.cube_task.bind(sim)
+    }
+
+    fn goal_dim(&self) -> usize {
+        self.cube_task.goal_dim()
+    }
+
+    fn goal_descriptions(&self) -> [&'static str; 2] {
+        [
+            "cube centre position",
+            "goal position for the cube centre, on the floor",
+        ]
+    }
+
+    fn observation_slots(&self) -> &'static [SlotSpec] {
+        self.cube_task.observation_slots()
+    }
+
+    fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart) {
+        let config = &self.config;
+        let mut draw = || rng.random::<f64>();
+        // Always the same draws in the same order, whatever the overrides.
+        let cube_xy = config.pick_region.lerp([draw(), draw()]);
+        let yaw_u = draw();
+        let goal_xy = config.push_goal_region.lerp([draw(), draw()]);
+        let size_u = draw();
+        let mass_u = draw();
+        let friction_u = draw();
+        let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
+            range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
+        };
+        let r = &config.randomization;
+        let cube = &config.sim.cube;
+        let size = pick(r.cube_size, cube.size, size_u);
+        let mass = pick(r.cube_mass, cube.mass, mass_u);
+        let friction = pick(r.cube_friction, cube.friction, friction_u);
+        let yaw = config.cube_yaw_range[0]
+            + (config.cube_yaw_range[1] - config.cube_yaw_range[0]) * yaw_u;
+        let position = options.cube_position.map_or(
+            Vector3::new(cube_xy[0], cube_xy[1], size / 2.0),
+            Vector3::from,
+        );
+        let goal = options.goal.map_or(
+            Vector3::new(goal_xy[0], goal_xy[1], size / 2.0),
+            Vector3::from,
+        );
+        let randomised =
+            r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some();
+        start.objects.clear();
+        start.objects.push(ObjectStart {
+            object: self.cube_task.cube(),
+            position,
+            orientation: UnitQuaternion::from_axis_angle(
+                &Vector3::z_axis(),
+                options.cube_yaw.unwrap_or(yaw),
+            ),
+            properties: randomised.then_some((size, mass, friction)),
+        });
+        start.goal.clear();
+        start.goal.extend_from_slice(goal.as_slice());
+    }
+
+    fn observe(
+        &self,
+        sim: &Simulation,
+        tcp: &BodyState,
+        goal: &[f64],
+        achieved: &mut [f64],
+        extras: &mut [f64],
+    ) {
+        self.cube_task.observe(sim, tcp, goal, achieved, extras)
+    }
+
+    fn evaluate(&self, view: &View<'_>) -> Verdict {
+        let mut verdict = self.cube_task.evaluate(view);
+        // Nothing is paid for holding the cube: the reward is judged again without the
+        // grasp and lift inputs (the same function `compute_rewards` applies).
+        verdict.context.grasp = 0.0;
+        verdict.context.lift = 0.0;
+        let l = view.layout;
+        let obs = view.observation;
+        let judged = self.cube_task.reward_function().evaluate(
+            &obs[l.achieved_goal()],
+            &obs[l.desired_goal()],
+            &verdict.context,
+        );
+        verdict.is_placed = judged.is_placed;
+        verdict.terms = judged.terms;
+        verdict.reward = judged.reward;
+        verdict
+    }
+
+    fn compute_rewards(
+        &self,
+        achieved: &[f32],
+        desired: &[f32],
+        contexts: &[RewardContext],
+        out: &mut [f32],
+    ) -> Result<()> {
+        self.cube_task
+            .compute_rewards(achieved, desired, contexts, out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::task::ObservationLayout;
+
+    #[test]
+    fn panda_layout_matches_the_documented_table() {
+        let task = Push::new(&EnvConfig {
+            task: crate::task::TaskKind::Push,
+            ..EnvConfig::default()
+        });
+        let layout = ObservationLayout::new(
+            9,
+            task.goal_dim(),
+            task.goal_descriptions(),
+            task.observation_slots(),
+        );
+        assert_eq!(layout.flat_dim(), 47);
+        let source = include_str!("push.rs");
+        for slot in layout.slots() {
+            let range = if slot.range.len() == 1 {
+                format!("| {} |", slot.range.start)
+            } else {
+                format!("| {}..{} |", slot.range.start, slot.range.end)
+            };
+            let row = source
+                .lines()
+                .find(|l| l.contains(&format!("`{}` | {} |", slot.name, slot.range.len())))
+                .unwrap_or_else(|| panic!("no table row for {}", slot.name));
+            assert!(
+                row.contains(&range),
+                "{}: row {row:?} lacks {range}",
+                slot.name
+            );
+        }
+    }
+
+    #[test]
+    fn goals_lie_on_the_floor_clear_of_the_start() {
+        use rand::SeedableRng;
+        let config = EnvConfig {
+            task: crate::task::TaskKind::Push,
+            ..EnvConfig::default()
+        };
+        let task = Push::new(&config);
+        let mut rng = ChaCha8Rng::seed_from_u64(0);
+        let mut start = EpisodeStart::default();
+        for _ in 0..200 {
+            task.draw_episode(&mut rng, &ResetOptions::default(), &mut start);
+            let cube = start.objects[0].position;
+            let goal = Vector3::from_column_slice(&start.goal);
+            assert_eq!(goal.z, config.sim.cube.size / 2.0);
+            assert_eq!(cube.z, goal.z);
+            assert!((goal - cube).norm() >= config.success_threshold);
+        }
+    }
+}
