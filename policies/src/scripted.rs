@@ -5,6 +5,11 @@
 //! where the hand, the fingers and the cube are, not remembered. So the policy can take over
 //! any environment at any step, and it recovers by itself when the cube slips or a grasp
 //! misses (the cube is then "not in the hand" again, and the approach starts over).
+//!
+//! The other tasks branch off early: `reach` moves the open hand to the goal; `push` closes the
+//! hand, lines it up behind the cube on the line from the goal through the cube and pushes
+//! along that line (see [`Phase::Align`] and [`Phase::Push`]); `lift` is pick-and-place with
+//! the goal in the air.
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use panda_rapier_core::task::observation::{
@@ -176,7 +181,7 @@ impl Default for ScriptedParams {
             pusher_half_width: 0.012,
             push_gap: 0.015,
             push_line_tolerance: 0.012,
-            push_speed: 0.5,
+            push_speed: 0.4,
             push_done: 0.015,
             push_closed_width: 0.01,
         }
@@ -551,12 +556,11 @@ impl ScriptedPolicy {
             let z = push_z + p.push_sag_gain * sag / gain;
             return decision(Phase::Push, at(target, z), 1.0, gain);
         }
-        // Backing straight off from a cube the hand has not passed: also free.
+        // Behind the cube (or just short of its back face, straight behind it) but off the
+        // line or not down yet: line up at pushing height before touching the cube (coming
+        // down on it tips it over). Still touching it: straight back first (moved sideways,
+        // the fingers would drag it along and tip it).
         if closed && low && (behind || (along < -extent && across.abs() < extent)) {
-            // Behind the cube but off the line, or not down yet: back off and line up at
-            // pushing height before touching the cube (coming down on it tips it over).
-            // Still touching the cube: straight back first (sideways, the fingers would drag
-            // it along and tip it).
             let touching = along > -(extent + p.pusher_half_width + 0.5 * p.push_gap);
             let target = if touching {
                 tcp.xy() - u * p.push_gap
@@ -566,7 +570,7 @@ impl ScriptedPolicy {
             return decision(Phase::Align, at(target, push_z), 1.0, p.arrival_gain);
         }
         if low && !behind {
-            // Beside or in front of the cube, or not closed yet: up before anything else.
+            // Beside or in front of the cube: up before anything else.
             let up = Vector3::new(tcp.x, tcp.y, over + 0.01);
             let target = if tcp.z > over - 0.02 {
                 at(behind_point, over + 0.01)
