@@ -120,8 +120,9 @@ pub struct ScriptedParams {
     /// `push`: height of the TCP above the cube's centre while pushing. The fingertip pads
     /// reach 8 mm below the TCP, and the fingers' upper parts (from 19 mm above the TCP) stick
     /// out 12 mm beyond the pads along the fingers' axis: pushed lower, the cube's top edge
-    /// meets those and the cube tips over (200 episodes, `ee` control, dynamic arm: 67 %
-    /// success at 0 mm, 97-99 % at 12-14 mm, before the `push_upright` recovery existed).
+    /// meets those and the cube tips over (200 episodes, `ee` control, dynamic arm, before the
+    /// `push_upright` recovery and the sag correction: 67 % success at 0 mm, 97-99 % at
+    /// 12-14 mm). Higher, the pads push the cube's upper half and it tips forwards.
     pub push_height: f64,
     /// `push`: with the dynamic arm, the final descent behind the cube, from this height above
     /// the passing height down, goes at...
