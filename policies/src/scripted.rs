@@ -5,6 +5,11 @@
 //! where the hand, the fingers and the cube are, not remembered. So the policy can take over
 //! any environment at any step, and it recovers by itself when the cube slips or a grasp
 //! misses (the cube is then "not in the hand" again, and the approach starts over).
+//!
+//! The other tasks branch off early: `reach` moves the open hand to the goal; `push` closes the
+//! hand, lines it up behind the cube on the line from the goal through the cube and pushes
+//! along that line (see [`Phase::Align`] and [`Phase::Push`]); `lift` is pick-and-place with
+//! the goal in the air.
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use panda_rapier_core::task::observation::{
@@ -124,8 +129,9 @@ pub struct ScriptedParams {
     /// `push`: height of the TCP above the cube's centre while pushing. The fingertip pads
     /// reach 8 mm below the TCP, and the fingers' upper parts (from 19 mm above the TCP) stick
     /// out 12 mm beyond the pads along the fingers' axis: pushed lower, the cube's top edge
-    /// meets those and the cube tips over (200 episodes, `ee` control, dynamic arm: 67 %
-    /// success at 0 mm, 97-99 % at 12-14 mm, before the `push_upright` recovery existed).
+    /// meets those and the cube tips over (200 episodes, `ee` control, dynamic arm, before the
+    /// `push_upright` recovery and the sag correction: 67 % success at 0 mm, 97-99 % at
+    /// 12-14 mm). Higher, the pads push the cube's upper half and it tips forwards.
     pub push_height: f64,
     /// `push`: with the dynamic arm, the final descent behind the cube, from this height above
     /// the passing height down, goes at...
@@ -188,7 +194,7 @@ impl Default for ScriptedParams {
             pusher_half_width: 0.012,
             push_gap: 0.015,
             push_line_tolerance: 0.012,
-            push_speed: 0.5,
+            push_speed: 0.4,
             push_done: 0.015,
             push_closed_width: 0.01,
         }
@@ -606,12 +612,11 @@ impl ScriptedPolicy {
             let z = push_z + p.push_sag_gain * sag / gain;
             return decision(Phase::Push, at(target, z), 1.0, gain);
         }
-        // Backing straight off from a cube the hand has not passed: also free.
+        // Behind the cube (or just short of its back face, straight behind it) but off the
+        // line or not down yet: line up at pushing height before touching the cube (coming
+        // down on it tips it over). Still touching it: straight back first (moved sideways,
+        // the fingers would drag it along and tip it).
         if closed && low && (behind || (along < -extent && across.abs() < extent)) {
-            // Behind the cube but off the line, or not down yet: back off and line up at
-            // pushing height before touching the cube (coming down on it tips it over).
-            // Still touching the cube: straight back first (sideways, the fingers would drag
-            // it along and tip it).
             let touching = along > -(extent + p.pusher_half_width + 0.5 * p.push_gap);
             let target = if touching {
                 tcp.xy() - u * p.push_gap
@@ -621,7 +626,7 @@ impl ScriptedPolicy {
             return decision(Phase::Align, at(target, push_z), 1.0, p.arrival_gain);
         }
         if low && !behind {
-            // Beside or in front of the cube, or not closed yet: up before anything else.
+            // Beside or in front of the cube: up before anything else.
             let up = Vector3::new(tcp.x, tcp.y, over + 0.01);
             let target = if tcp.z > over - 0.02 {
                 at(behind_point, over + 0.01)

@@ -15,7 +15,9 @@ from ._native import default_config_json
 MAX_EPISODE_STEPS: int = json.loads(default_config_json())["max_episode_steps"]
 
 #: Episode length of each task's ids: reach takes panda-gym's 50 steps (the scripted expert
-#: needs at most 26); the cube tasks the default.
+#: needs at most 26); the cube tasks the default (push: the scripted expert succeeds in 99.6 to
+#: 99.9 % of 1,000 episodes in 70 steps in each action mode and arm, its 95th percentile at
+#: 43 to 57 steps).
 TASK_EPISODE_STEPS: dict[str, int] = {
     "pick_and_place": MAX_EPISODE_STEPS,
     "reach": 50,
