@@ -15,10 +15,29 @@ from .robot import Robot
 
 
 class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray], EzPickle):
-    """A Franka Panda picks a cube off the floor and places it on a platform.
+    """A Franka Panda manipulation task; by default it picks a cube off the floor and places it
+    on a platform.
+
+    ## Tasks
+    The ``task`` option (each registered id sets it):
+
+    - ``"pick_and_place"`` (``PickAndPlace*`` ids, the default): described below.
+    - ``"reach"`` (``Reach*``): move the TCP to a goal in the air, uniform in
+      ``reach_goal_region``; no objects; ``achieved_goal`` is the TCP position, the observation
+      has the robot's 25 entries; dense reward ``1 - tanh(5 d)``; 50 steps.
+    - ``"lift"`` (``Lift*``): the cube to a goal ``lift_height`` above its start; no platform;
+      pick-and-place's observation and rewards.
+    - ``"push"`` (``Push*``): push the cube along the floor to a goal in ``push_goal_region``,
+      fingers closed; no platform; pick-and-place's observation; dense reward reach + carry.
+    - ``"stack"`` (``Stack*``): one cube on the goal on the platform, the other on top;
+      6-D goals (both cubes), 57-entry observation (both cubes' slots); 120 steps.
+
+    ``env.unwrapped.schema`` lists every observation slot and info key of the task. The rest
+    of this text describes pick-and-place; the core's ``env-core/src/task/<task>.rs`` documents
+    each task's observation table, start state and rewards.
 
     ## Description
-    A Panda on a fixed base, a 4 cm cube on the floor in front of it and a raised platform to
+    A Panda on a fixed base, a 5 cm cube on the floor in front of it and a raised platform to
     its left, simulated by rapier3d (multibody arm with torque-limited joint motors, friction
     grasp: the fingers hold the cube by contact forces alone). The goal is a point on the
     platform (optionally in the air, ``goal_air_probability``); the cube must be carried there
