@@ -24,10 +24,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let num_envs: usize = args.get(3).map_or(Ok(32), |s| s.parse())?;
     let task = match args.get(4) {
         None => TaskKind::PickAndPlace,
-        Some(name) => TaskKind::ALL
-            .into_iter()
-            .find(|t| t.as_str() == name)
-            .ok_or_else(|| format!("unknown task {name}"))?,
+        Some(name) => TaskKind::from_name(name).ok_or_else(|| format!("unknown task {name}"))?,
     };
     let arm = match args.get(5).map(String::as_str) {
         None | Some("dynamic") => ArmFidelity::Dynamic,

@@ -60,6 +60,11 @@ impl TaskKind {
         TaskKind::Push,
     ];
 
+    /// The task called `name` (as [`TaskKind::as_str`] spells it).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|t| t.as_str() == name)
+    }
+
     /// The name used in configs and on the command line.
     pub fn as_str(self) -> &'static str {
         match self {

@@ -159,3 +159,35 @@ pub struct EpisodeStart {
     /// The goal (the task's `goal_dim` entries).
     pub goal: Vec<f64>,
 }
+
+/// A cube's edge length, mass and friction for an episode from three uniform draws in `[0, 1)`:
+/// each the configured value unless `randomization` gives it a range; and whether any does.
+pub(crate) fn cube_properties(
+    config: &crate::task::EnvConfig,
+    u: [f64; 3],
+) -> (f64, f64, f64, bool) {
+    let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
+        range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
+    };
+    let r = &config.randomization;
+    let cube = &config.sim.cube;
+    let randomised = r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some();
+    (
+        pick(r.cube_size, cube.size, u[0]),
+        pick(r.cube_mass, cube.mass, u[1]),
+        pick(r.cube_friction, cube.friction, u[2]),
+        randomised,
+    )
+}
+
+/// A cube's start orientation: the yaw `options.cube_yaw`, else a uniform draw `u` across
+/// `cube_yaw_range`.
+pub(crate) fn cube_orientation(
+    config: &crate::task::EnvConfig,
+    u: f64,
+    options: &ResetOptions,
+) -> UnitQuaternion<f64> {
+    let [low, high] = config.cube_yaw_range;
+    let yaw = options.cube_yaw.unwrap_or(low + (high - low) * u);
+    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw)
+}

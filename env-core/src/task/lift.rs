@@ -15,10 +15,11 @@
 //! `success_threshold` of the goal, then 0; `dense` the staged `reach`, `grasp`, `lift` and
 //! `carry` terms (there is no platform to place on, so `place` and `release` stay 0).
 
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
+use super::episode::{cube_orientation, cube_properties};
 use super::{EnvConfig, EpisodeStart, ObjectStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectSpec, Scene, Simulation};
@@ -85,16 +86,8 @@ impl Task for Lift {
         let size_u = draw();
         let mass_u = draw();
         let friction_u = draw();
-        let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
-            range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
-        };
-        let r = &config.randomization;
-        let cube = &config.sim.cube;
-        let size = pick(r.cube_size, cube.size, size_u);
-        let mass = pick(r.cube_mass, cube.mass, mass_u);
-        let friction = pick(r.cube_friction, cube.friction, friction_u);
-        let yaw = config.cube_yaw_range[0]
-            + (config.cube_yaw_range[1] - config.cube_yaw_range[0]) * yaw_u;
+        let (size, mass, friction, randomised) =
+            cube_properties(config, [size_u, mass_u, friction_u]);
         let position = options.cube_position.map_or(
             Vector3::new(cube_xy[0], cube_xy[1], size / 2.0),
             Vector3::from,
@@ -108,16 +101,11 @@ impl Task for Lift {
             ),
             Vector3::from,
         );
-        let randomised =
-            r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some();
         start.objects.clear();
         start.objects.push(ObjectStart {
             object: self.cube_task.cube(),
             position,
-            orientation: UnitQuaternion::from_axis_angle(
-                &Vector3::z_axis(),
-                options.cube_yaw.unwrap_or(yaw),
-            ),
+            orientation: cube_orientation(config, yaw_u, options),
             properties: randomised.then_some((size, mass, friction)),
         });
         start.goal.clear();

@@ -367,6 +367,40 @@ pub const REWARD_CONTEXT_KEYS: [&str; 7] = [
     "cube_on_platform",
 ];
 
+/// Checks that every slot of `task`'s layout for the Panda (9 moving joints) appears, with its
+/// flat range, in the observation table of the task's source file `source`, and that the flat
+/// vector has `flat_dim` entries.
+#[cfg(test)]
+pub(crate) fn assert_documented_layout(
+    task: &dyn crate::task::Task,
+    source: &str,
+    flat_dim: usize,
+) {
+    let layout = ObservationLayout::new(
+        9,
+        task.goal_dim(),
+        task.goal_descriptions(),
+        task.observation_slots(),
+    );
+    assert_eq!(layout.flat_dim(), flat_dim);
+    for slot in layout.slots() {
+        let range = if slot.range.len() == 1 {
+            format!("| {} |", slot.range.start)
+        } else {
+            format!("| {}..{} |", slot.range.start, slot.range.end)
+        };
+        let row = source
+            .lines()
+            .find(|l| l.contains(&format!("`{}` | {} |", slot.name, slot.range.len())))
+            .unwrap_or_else(|| panic!("no table row for {}", slot.name));
+        assert!(
+            row.contains(&range),
+            "{}: row {row:?} lacks {range}",
+            slot.name
+        );
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

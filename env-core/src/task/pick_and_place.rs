@@ -33,10 +33,11 @@
 //! `sparse`: -1 until the cube is within `success_threshold` of the goal, then 0. `dense`: the
 //! staged terms of [`crate::task::reward`].
 
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
+use super::episode::{cube_orientation, cube_properties};
 use super::{EnvConfig, EpisodeStart, ObjectStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, ObjectSpec, Scene, Simulation};
@@ -154,16 +155,8 @@ impl Task for PickAndPlace {
         let size_u = draw();
         let mass_u = draw();
         let friction_u = draw();
-        let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
-            range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
-        };
-        let r = &config.randomization;
-        let cube = &config.sim.cube;
-        let size = pick(r.cube_size, cube.size, size_u);
-        let mass = pick(r.cube_mass, cube.mass, mass_u);
-        let friction = pick(r.cube_friction, cube.friction, friction_u);
-        let yaw = config.cube_yaw_range[0]
-            + (config.cube_yaw_range[1] - config.cube_yaw_range[0]) * yaw_u;
+        let (size, mass, friction, randomised) =
+            cube_properties(config, [size_u, mass_u, friction_u]);
         let platform_top = config.sim.platform.top_center[2];
         let mut goal = Vector3::new(goal_xy[0], goal_xy[1], platform_top + size / 2.0);
         if air_u < config.goal_air_probability {
@@ -177,15 +170,10 @@ impl Task for PickAndPlace {
             Vector3::new(cube_xy[0], cube_xy[1], size / 2.0),
             Vector3::from,
         );
-        let randomised =
-            r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some();
         let object = ObjectStart {
             object: self.cube(),
             position,
-            orientation: UnitQuaternion::from_axis_angle(
-                &Vector3::z_axis(),
-                options.cube_yaw.unwrap_or(yaw),
-            ),
+            orientation: cube_orientation(config, yaw_u, options),
             properties: randomised.then_some((size, mass, friction)),
         };
         match start.objects.first_mut() {
@@ -288,36 +276,14 @@ fn norm(v: &[f32]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::task::ObservationLayout;
 
     #[test]
     fn panda_layout_matches_the_documented_table() {
         let task = PickAndPlace::new(&EnvConfig::default());
-        let layout = ObservationLayout::new(
-            9,
-            task.goal_dim(),
-            task.goal_descriptions(),
-            task.observation_slots(),
+        crate::task::observation::assert_documented_layout(
+            &task,
+            include_str!("pick_and_place.rs"),
+            47,
         );
-        assert_eq!(layout.observation_dim(), 41);
-        assert_eq!(layout.flat_dim(), 47);
-        // Each slot appears in the module's table with its flat range.
-        let source = include_str!("pick_and_place.rs");
-        for slot in layout.slots() {
-            let range = if slot.range.len() == 1 {
-                format!("| {} |", slot.range.start)
-            } else {
-                format!("| {}..{} |", slot.range.start, slot.range.end)
-            };
-            let row = source
-                .lines()
-                .find(|l| l.contains(&format!("`{}` | {} |", slot.name, slot.range.len())))
-                .unwrap_or_else(|| panic!("no table row for {}", slot.name));
-            assert!(
-                row.contains(&range),
-                "{}: row {row:?} lacks {range}",
-                slot.name
-            );
-        }
     }
 }

@@ -44,10 +44,11 @@
 //! here; `is_grasped` and `is_lifted` are reported as in pick-and-place, `is_placed` is never
 //! true (there is no platform).
 
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
+use super::episode::{cube_orientation, cube_properties};
 use super::{EnvConfig, EpisodeStart, ObjectStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectSpec, Scene, Simulation};
@@ -114,16 +115,8 @@ impl Task for Push {
         let size_u = draw();
         let mass_u = draw();
         let friction_u = draw();
-        let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
-            range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
-        };
-        let r = &config.randomization;
-        let cube = &config.sim.cube;
-        let size = pick(r.cube_size, cube.size, size_u);
-        let mass = pick(r.cube_mass, cube.mass, mass_u);
-        let friction = pick(r.cube_friction, cube.friction, friction_u);
-        let yaw = config.cube_yaw_range[0]
-            + (config.cube_yaw_range[1] - config.cube_yaw_range[0]) * yaw_u;
+        let (size, mass, friction, randomised) =
+            cube_properties(config, [size_u, mass_u, friction_u]);
         let position = options.cube_position.map_or(
             Vector3::new(cube_xy[0], cube_xy[1], size / 2.0),
             Vector3::from,
@@ -132,16 +125,11 @@ impl Task for Push {
             Vector3::new(goal_xy[0], goal_xy[1], size / 2.0),
             Vector3::from,
         );
-        let randomised =
-            r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some();
         start.objects.clear();
         start.objects.push(ObjectStart {
             object: self.cube_task.cube(),
             position,
-            orientation: UnitQuaternion::from_axis_angle(
-                &Vector3::z_axis(),
-                options.cube_yaw.unwrap_or(yaw),
-            ),
+            orientation: cube_orientation(config, yaw_u, options),
             properties: randomised.then_some((size, mass, friction)),
         });
         start.goal.clear();
@@ -193,7 +181,6 @@ impl Task for Push {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::task::ObservationLayout;
 
     #[test]
     fn panda_layout_matches_the_documented_table() {
@@ -201,30 +188,7 @@ mod tests {
             task: crate::task::TaskKind::Push,
             ..EnvConfig::default()
         });
-        let layout = ObservationLayout::new(
-            9,
-            task.goal_dim(),
-            task.goal_descriptions(),
-            task.observation_slots(),
-        );
-        assert_eq!(layout.flat_dim(), 47);
-        let source = include_str!("push.rs");
-        for slot in layout.slots() {
-            let range = if slot.range.len() == 1 {
-                format!("| {} |", slot.range.start)
-            } else {
-                format!("| {}..{} |", slot.range.start, slot.range.end)
-            };
-            let row = source
-                .lines()
-                .find(|l| l.contains(&format!("`{}` | {} |", slot.name, slot.range.len())))
-                .unwrap_or_else(|| panic!("no table row for {}", slot.name));
-            assert!(
-                row.contains(&range),
-                "{}: row {row:?} lacks {range}",
-                slot.name
-            );
-        }
+        crate::task::observation::assert_documented_layout(&task, include_str!("push.rs"), 47);
     }
 
     #[test]

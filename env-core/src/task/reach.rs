@@ -29,10 +29,12 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
-use crate::error::{ensure_len, Error, Result};
+use crate::error::Result;
 use crate::physics::{BodyState, Scene, Simulation};
 use crate::task::config::RewardType;
-use crate::task::reward::{closeness, RewardContext, RewardFunction, RewardTerms, GOAL_DIM};
+use crate::task::reward::{
+    check_batch, closeness, RewardContext, RewardFunction, RewardTerms, GOAL_DIM,
+};
 
 /// Move the tool centre point to the goal (see the module documentation).
 #[derive(Debug, Clone)]
@@ -152,28 +154,22 @@ impl Task for Reach {
         _contexts: &[RewardContext],
         out: &mut [f32],
     ) -> Result<()> {
-        if achieved.len() % GOAL_DIM != 0 {
-            return Err(Error::WrongLength {
-                what: "achieved_goal (n x 3)".into(),
-                expected: (achieved.len() / GOAL_DIM + 1) * GOAL_DIM,
-                got: achieved.len(),
-            });
-        }
-        let n = achieved.len() / GOAL_DIM;
-        ensure_len("desired_goal (n x 3)", achieved.len(), desired.len())?;
-        ensure_len("reward output", n, out.len())?;
-        for (name, values) in [("achieved_goal", achieved), ("desired_goal", desired)] {
-            if let Some((i, &v)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-                return Err(Error::NonFinite {
-                    what: format!("{name}[{}][{}]", i / GOAL_DIM, i % GOAL_DIM),
-                    value: v as f64,
-                });
-            }
-        }
+        check_batch(achieved, desired, GOAL_DIM, &[], false, out)?;
         for (i, r) in out.iter_mut().enumerate() {
             let span = i * GOAL_DIM..(i + 1) * GOAL_DIM;
             *r = self.reward(&achieved[span.clone()], &desired[span]).2;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn panda_layout_matches_the_documented_table() {
+        let task = Reach::new(&EnvConfig::default());
+        crate::task::observation::assert_documented_layout(&task, include_str!("reach.rs"), 31);
     }
 }

@@ -148,6 +148,42 @@ pub struct GoalVerdict {
     pub terms: RewardTerms,
 }
 
+/// Checks the arguments of a batched reward for goals of `goal_dim` entries: `achieved` and
+/// `desired` hold `n x goal_dim` finite values, `out` has room for `n` rewards and `contexts`
+/// holds one entry per transition (or none, unless `needs_context`). Returns `n`.
+pub fn check_batch(
+    achieved: &[f32],
+    desired: &[f32],
+    goal_dim: usize,
+    contexts: &[RewardContext],
+    needs_context: bool,
+    out: &[f32],
+) -> Result<usize> {
+    if achieved.len() % goal_dim != 0 {
+        return Err(Error::WrongLength {
+            what: format!("achieved_goal (n x {goal_dim})"),
+            expected: (achieved.len() / goal_dim + 1) * goal_dim,
+            got: achieved.len(),
+        });
+    }
+    let n = achieved.len() / goal_dim;
+    let desired_what = format!("desired_goal (n x {goal_dim})");
+    crate::error::ensure_len(&desired_what, achieved.len(), desired.len())?;
+    crate::error::ensure_len("reward output", n, out.len())?;
+    if needs_context || !contexts.is_empty() {
+        crate::error::ensure_len("info entries", n, contexts.len())?;
+    }
+    for (name, values) in [("achieved_goal", achieved), ("desired_goal", desired)] {
+        if let Some((i, &v)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(Error::NonFinite {
+                what: format!("{name}[{}][{}]", i / goal_dim, i % goal_dim),
+                value: v as f64,
+            });
+        }
+    }
+    Ok(n)
+}
+
 /// `1 - tanh(5 d)`: 1 at the target, 0.5 at 11 cm, fading to 0 beyond half a metre.
 pub fn closeness(distance: f64) -> f32 {
     (1.0 - (5.0 * distance).tanh()) as f32
@@ -234,28 +270,8 @@ impl RewardFunction {
         contexts: &[RewardContext],
         out: &mut [f32],
     ) -> Result<()> {
-        if achieved.len() % GOAL_DIM != 0 {
-            return Err(Error::WrongLength {
-                what: "achieved_goal (n x 3)".into(),
-                expected: (achieved.len() / GOAL_DIM + 1) * GOAL_DIM,
-                got: achieved.len(),
-            });
-        }
-        let n = achieved.len() / GOAL_DIM;
-        crate::error::ensure_len("desired_goal (n x 3)", achieved.len(), desired.len())?;
-        crate::error::ensure_len("reward output", n, out.len())?;
         let needs_context = self.reward_type == RewardType::Dense;
-        if needs_context || !contexts.is_empty() {
-            crate::error::ensure_len("info entries", n, contexts.len())?;
-        }
-        for (name, values) in [("achieved_goal", achieved), ("desired_goal", desired)] {
-            if let Some((i, &v)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-                return Err(Error::NonFinite {
-                    what: format!("{name}[{}][{}]", i / GOAL_DIM, i % GOAL_DIM),
-                    value: v as f64,
-                });
-            }
-        }
+        check_batch(achieved, desired, GOAL_DIM, contexts, needs_context, out)?;
         let empty = RewardContext::default();
         for (i, r) in out.iter_mut().enumerate() {
             let span = i * GOAL_DIM..(i + 1) * GOAL_DIM;

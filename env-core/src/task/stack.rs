@@ -43,15 +43,16 @@
 //! `reward_weights` entry. The info's `cube_*` flags describe the pair (released: neither cube
 //! touched; at rest: both; on platform: stacked as above); `reward_lift` is 0.
 
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
+use super::episode::{cube_orientation, cube_properties};
 use super::{EnvConfig, EpisodeStart, ObjectStart, ResetOptions, SlotSpec, Task, Verdict, View};
-use crate::error::{ensure_len, Error, Result};
+use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, ObjectSpec, ObjectTouch, Scene, Simulation};
 use crate::task::config::RewardType;
-use crate::task::reward::{closeness, RewardContext, RewardFunction, RewardTerms};
+use crate::task::reward::{check_batch, closeness, RewardContext, RewardFunction, RewardTerms};
 
 /// The task's observation slots, after the robot's: five per cube.
 const SLOTS: [SlotSpec; 10] = [
@@ -216,14 +217,8 @@ impl Task for Stack {
         let size_u = draw();
         let mass_u = draw();
         let friction_u = draw();
-        let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
-            range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
-        };
-        let r = &config.randomization;
-        let cube = &config.sim.cube;
-        let size = pick(r.cube_size, cube.size, size_u);
-        let mass = pick(r.cube_mass, cube.mass, mass_u);
-        let friction = pick(r.cube_friction, cube.friction, friction_u);
+        let (size, mass, friction, randomised) =
+            cube_properties(config, [size_u, mass_u, friction_u]);
         // The two halves of the pick region along y, a gap between them.
         let region = config.pick_region;
         let middle = (region.low[1] + region.high[1]) / 2.0;
@@ -245,19 +240,13 @@ impl Task for Stack {
         } else {
             (high_half(first_u), low_half(second_u))
         };
-        let yaw = |u: f64| {
-            let y = config.cube_yaw_range[0]
-                + (config.cube_yaw_range[1] - config.cube_yaw_range[0]) * u;
-            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), options.cube_yaw.unwrap_or(y))
-        };
+        let yaw = |u: f64| cube_orientation(config, u, options);
         let platform_top = config.sim.platform.top_center[2];
         let bottom_goal = options.goal.map_or(
             Vector3::new(goal_xy[0], goal_xy[1], platform_top + size / 2.0),
             Vector3::from,
         );
         let top_goal = bottom_goal + Vector3::new(0.0, 0.0, size);
-        let randomised =
-            r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some();
         let properties = randomised.then_some((size, mass, friction));
         let [c1, c2] = self.cubes();
         start.objects.clear();
@@ -363,27 +352,8 @@ impl Task for Stack {
         contexts: &[RewardContext],
         out: &mut [f32],
     ) -> Result<()> {
-        if achieved.len() % GOAL_DIM != 0 {
-            return Err(Error::WrongLength {
-                what: "achieved_goal (n x 6)".into(),
-                expected: (achieved.len() / GOAL_DIM + 1) * GOAL_DIM,
-                got: achieved.len(),
-            });
-        }
-        let n = achieved.len() / GOAL_DIM;
-        ensure_len("desired_goal (n x 6)", achieved.len(), desired.len())?;
-        ensure_len("reward output", n, out.len())?;
-        if self.config.reward_type == RewardType::Dense || !contexts.is_empty() {
-            ensure_len("info entries", n, contexts.len())?;
-        }
-        for (name, values) in [("achieved_goal", achieved), ("desired_goal", desired)] {
-            if let Some((i, &v)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-                return Err(Error::NonFinite {
-                    what: format!("{name}[{}][{}]", i / GOAL_DIM, i % GOAL_DIM),
-                    value: v as f64,
-                });
-            }
-        }
+        let needs_context = self.config.reward_type == RewardType::Dense;
+        check_batch(achieved, desired, GOAL_DIM, contexts, needs_context, out)?;
         let empty = RewardContext::default();
         for (i, r) in out.iter_mut().enumerate() {
             let span = i * GOAL_DIM..(i + 1) * GOAL_DIM;
@@ -406,35 +376,10 @@ fn norm(v: &[f32]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::task::ObservationLayout;
 
     #[test]
     fn panda_layout_matches_the_documented_table() {
         let task = Stack::new(&EnvConfig::default());
-        let layout = ObservationLayout::new(
-            9,
-            task.goal_dim(),
-            task.goal_descriptions(),
-            task.observation_slots(),
-        );
-        assert_eq!(layout.observation_dim(), 57);
-        assert_eq!(layout.flat_dim(), 69);
-        let source = include_str!("stack.rs");
-        for slot in layout.slots() {
-            let range = if slot.range.len() == 1 {
-                format!("| {} |", slot.range.start)
-            } else {
-                format!("| {}..{} |", slot.range.start, slot.range.end)
-            };
-            let row = source
-                .lines()
-                .find(|l| l.contains(&format!("`{}` | {} |", slot.name, slot.range.len())))
-                .unwrap_or_else(|| panic!("no table row for {}", slot.name));
-            assert!(
-                row.contains(&range),
-                "{}: row {row:?} lacks {range}",
-                slot.name
-            );
-        }
+        crate::task::observation::assert_documented_layout(&task, include_str!("stack.rs"), 69);
     }
 }
