@@ -211,7 +211,7 @@ fn expert_rate(task: TaskKind, mode: ControlMode, arm: ArmFidelity, episodes: us
     config.arm = arm;
     config.max_episode_steps = Some(match task {
         TaskKind::Reach => 50,
-        TaskKind::Stack => 120,
+        TaskKind::Stack => 150,
         _ => 70,
     });
     let report = evaluate(&config, episodes, 25, Some(2), 0, |_| {}).unwrap();
@@ -224,9 +224,9 @@ fn expert_rate(task: TaskKind, mode: ControlMode, arm: ArmFidelity, episodes: us
 
 #[test]
 fn the_scripted_expert_stacks_most_episodes() {
-    // Below the 99 % / 95 % bar of the other tasks (1,000 episodes: 94.5 % ee, 96.6 % joints,
-    // dynamic arm): the top cube sometimes slides off the stack or falls off the platform.
-    // This guards what it reaches.
+    // Below the 99 % bar in `ee` control (1,000 episodes: 97.4 % dynamic arm, 95.3 %
+    // kinematic; `joints` meets its 95 %: 98.1 % and 100 %): the top cube sometimes slides off
+    // the stack or is swept off the floor. This guards what it reaches.
     let ee = expert_rate(TaskKind::Stack, ControlMode::Ee, ArmFidelity::Dynamic, 100);
     let joints = expert_rate(
         TaskKind::Stack,

@@ -124,6 +124,10 @@ pub struct ScriptedParams {
     /// `stack`: within this horizontal distance of the bottom cube, the hand rises above it
     /// before heading for the other cube.
     pub stack_clear_distance: f64,
+    /// `stack`: within this horizontal distance of the second cube the approach slows...
+    pub stack_slow_distance: f64,
+    /// `stack`: ...to this speed (a fraction of a full action).
+    pub stack_approach_speed: f64,
     /// `push`: height of the fingertips' path over the cube's top when passing over it.
     pub push_clearance: f64,
     /// `push`: height of the TCP above the cube's centre while pushing. The fingertip pads
@@ -182,6 +186,8 @@ impl Default for ScriptedParams {
             stack_hover_height: 0.18,
             stack_place_tolerance: 0.003,
             stack_clear_distance: 0.1,
+            stack_slow_distance: 0.15,
+            stack_approach_speed: 0.5,
             push_clearance: 0.03,
             push_height: 0.008,
             push_descent_height: 0.03,
@@ -518,7 +524,14 @@ impl ScriptedPolicy {
             height = height.min(tcp.z - cube.z);
         }
         let above = Vector3::new(cube.x, cube.y, cube.z + height);
-        Ok(decision(Phase::Approach, above, 1.0, 1.0))
+        // Arriving sideways at the second cube of a stack, slow down near it: at full speed the
+        // lagging arm dips below its target and sweeps the cube away.
+        let speed = if careful && misalignment < p.stack_slow_distance {
+            p.stack_approach_speed
+        } else {
+            1.0
+        };
+        Ok(decision(Phase::Approach, above, speed, 1.0))
     }
 
     /// The `push` task: the hand, closed, goes behind the cube on the line from the goal through

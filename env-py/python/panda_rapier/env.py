@@ -30,7 +30,7 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     - ``"push"`` (``Push*``): push the cube along the floor to a goal in ``push_goal_region``,
       fingers closed; no platform; pick-and-place's observation; dense reward reach + carry.
     - ``"stack"`` (``Stack*``): one cube on the goal on the platform, the other on top;
-      6-D goals (both cubes), 57-entry observation (both cubes' slots); 120 steps.
+      6-D goals (both cubes), 57-entry observation (both cubes' slots); 150 steps.
 
     ``env.unwrapped.schema`` lists every observation slot and info key of the task. The rest
     of this text describes pick-and-place; the core's ``env-core/src/task/<task>.rs`` documents
