@@ -194,22 +194,8 @@ impl Task for PickAndPlace {
         extras: &mut [f64],
     ) {
         let cube = sim.object_state(self.cube());
-        let mut orientation = cube.orientation.coords;
-        if orientation.w < 0.0 {
-            orientation = -orientation;
-        }
-        let relative = cube.position - tcp.position;
         achieved.copy_from_slice(cube.position.as_slice());
-        let values: [&[f64]; 5] = [
-            cube.position.as_slice(),
-            &[orientation.x, orientation.y, orientation.z, orientation.w],
-            cube.linear_velocity.as_slice(),
-            cube.angular_velocity.as_slice(),
-            relative.as_slice(),
-        ];
-        for (o, v) in extras.iter_mut().zip(values.iter().flat_map(|s| s.iter())) {
-            *o = *v;
-        }
+        write_cube_slots(&cube, tcp, extras);
     }
 
     fn evaluate(&self, view: &View<'_>) -> Verdict {
@@ -266,7 +252,28 @@ impl Task for PickAndPlace {
     }
 }
 
-fn norm(v: &[f32]) -> f64 {
+/// Writes a cube's five observation slots ([`SLOTS`]: position, orientation as x, y, z, w with
+/// w >= 0, linear and angular velocity, position relative to the TCP) into `out`.
+pub(crate) fn write_cube_slots(cube: &BodyState, tcp: &BodyState, out: &mut [f64]) {
+    let mut orientation = cube.orientation.coords;
+    if orientation.w < 0.0 {
+        orientation = -orientation;
+    }
+    let relative = cube.position - tcp.position;
+    let values: [&[f64]; 5] = [
+        cube.position.as_slice(),
+        &[orientation.x, orientation.y, orientation.z, orientation.w],
+        cube.linear_velocity.as_slice(),
+        cube.angular_velocity.as_slice(),
+        relative.as_slice(),
+    ];
+    for (o, v) in out.iter_mut().zip(values.iter().flat_map(|s| s.iter())) {
+        *o = *v;
+    }
+}
+
+/// The Euclidean norm of an observation slot, computed in f64 from its f32 values.
+pub(crate) fn norm(v: &[f32]) -> f64 {
     v.iter()
         .map(|&x| (x as f64) * (x as f64))
         .sum::<f64>()

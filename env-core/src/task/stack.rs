@@ -52,6 +52,7 @@ use super::{EnvConfig, EpisodeStart, ObjectStart, ResetOptions, SlotSpec, Task, 
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, ObjectSpec, ObjectTouch, Scene, Simulation};
 use crate::task::config::RewardType;
+use crate::task::pick_and_place::{norm, write_cube_slots};
 use crate::task::reward::{check_batch, closeness, RewardContext, RewardFunction, RewardTerms};
 
 /// The task's observation slots, after the robot's: five per cube.
@@ -280,23 +281,8 @@ impl Task for Stack {
         let per_cube = extras.len() / 2;
         for (k, cube) in self.cubes().into_iter().enumerate() {
             let state = sim.object_state(cube);
-            let mut orientation = state.orientation.coords;
-            if orientation.w < 0.0 {
-                orientation = -orientation;
-            }
-            let relative = state.position - tcp.position;
             achieved[3 * k..3 * k + 3].copy_from_slice(state.position.as_slice());
-            let values: [&[f64]; 5] = [
-                state.position.as_slice(),
-                &[orientation.x, orientation.y, orientation.z, orientation.w],
-                state.linear_velocity.as_slice(),
-                state.angular_velocity.as_slice(),
-                relative.as_slice(),
-            ];
-            let out = &mut extras[k * per_cube..(k + 1) * per_cube];
-            for (o, v) in out.iter_mut().zip(values.iter().flat_map(|s| s.iter())) {
-                *o = *v;
-            }
+            write_cube_slots(&state, tcp, &mut extras[k * per_cube..(k + 1) * per_cube]);
         }
     }
 
@@ -364,13 +350,6 @@ impl Task for Stack {
         }
         Ok(())
     }
-}
-
-fn norm(v: &[f32]) -> f64 {
-    v.iter()
-        .map(|&x| (x as f64) * (x as f64))
-        .sum::<f64>()
-        .sqrt()
 }
 
 #[cfg(test)]
