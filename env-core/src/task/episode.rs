@@ -160,24 +160,66 @@ pub struct EpisodeStart {
     pub goal: Vec<f64>,
 }
 
-/// A cube's edge length, mass and friction for an episode from three uniform draws in `[0, 1)`:
-/// each the configured value unless `randomization` gives it a range; and whether any does.
-pub(crate) fn cube_properties(
-    config: &crate::task::EnvConfig,
-    u: [f64; 3],
-) -> (f64, f64, f64, bool) {
-    let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
-        range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
-    };
-    let r = &config.randomization;
-    let cube = &config.sim.cube;
-    let randomised = r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some();
-    (
-        pick(r.cube_size, cube.size, u[0]),
-        pick(r.cube_mass, cube.mass, u[1]),
-        pick(r.cube_friction, cube.friction, u[2]),
-        randomised,
-    )
+/// A cube's edge length (m), mass (kg) and friction for one episode.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct CubeProperties {
+    pub(crate) size: f64,
+    pub(crate) mass: f64,
+    pub(crate) friction: f64,
+    /// Whether `randomization` gives any of them a range (the world is told only then).
+    randomised: bool,
+}
+
+impl CubeProperties {
+    /// The properties from three uniform draws in `[0, 1)`: each the configured value unless
+    /// `randomization` gives it a range.
+    pub(crate) fn draw(config: &crate::task::EnvConfig, u: [f64; 3]) -> Self {
+        let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
+            range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
+        };
+        let r = &config.randomization;
+        let cube = &config.sim.cube;
+        Self {
+            size: pick(r.cube_size, cube.size, u[0]),
+            mass: pick(r.cube_mass, cube.mass, u[1]),
+            friction: pick(r.cube_friction, cube.friction, u[2]),
+            randomised: r.cube_size.is_some() || r.cube_mass.is_some() || r.cube_friction.is_some(),
+        }
+    }
+
+    /// The cube `object` with these properties, resting on the floor at `xy` (or at
+    /// `position`, when given), turned to `orientation`.
+    pub(crate) fn resting(
+        &self,
+        object: ObjectId,
+        xy: [f64; 2],
+        position: Option<[f64; 3]>,
+        orientation: UnitQuaternion<f64>,
+    ) -> ObjectStart {
+        ObjectStart {
+            object,
+            position: position.map_or(Vector3::new(xy[0], xy[1], self.size / 2.0), Vector3::from),
+            orientation,
+            properties: self
+                .randomised
+                .then_some((self.size, self.mass, self.friction)),
+        }
+    }
+}
+
+impl EpisodeStart {
+    /// Sets the objects and the goal (reusing the buffers: no allocation after the first
+    /// episode).
+    pub(crate) fn set(
+        &mut self,
+        objects: impl IntoIterator<Item = ObjectStart>,
+        goal: impl IntoIterator<Item = f64>,
+    ) {
+        self.objects.clear();
+        self.objects.extend(objects);
+        self.goal.clear();
+        self.goal.extend(goal);
+    }
 }
 
 /// A cube's start orientation: the yaw `options.cube_yaw`, else a uniform draw `u` across

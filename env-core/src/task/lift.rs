@@ -19,8 +19,8 @@ use nalgebra::Vector3;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-use super::episode::{cube_orientation, cube_properties};
-use super::{EnvConfig, EpisodeStart, ObjectStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use super::episode::{cube_orientation, CubeProperties};
+use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectSpec, Scene, Simulation};
 use crate::task::pick_and_place::PickAndPlace;
@@ -86,30 +86,20 @@ impl Task for Lift {
         let size_u = draw();
         let mass_u = draw();
         let friction_u = draw();
-        let (size, mass, friction, randomised) =
-            cube_properties(config, [size_u, mass_u, friction_u]);
-        let position = options.cube_position.map_or(
-            Vector3::new(cube_xy[0], cube_xy[1], size / 2.0),
-            Vector3::from,
+        let properties = CubeProperties::draw(config, [size_u, mass_u, friction_u]);
+        let cube = properties.resting(
+            self.cube_task.cube(),
+            cube_xy,
+            options.cube_position,
+            cube_orientation(config, yaw_u, options),
         );
         let [low, high] = config.lift_height;
+        let lifted = properties.size / 2.0 + low + (high - low) * height_u;
         let goal = options.goal.map_or(
-            Vector3::new(
-                position.x,
-                position.y,
-                size / 2.0 + low + (high - low) * height_u,
-            ),
+            Vector3::new(cube.position.x, cube.position.y, lifted),
             Vector3::from,
         );
-        start.objects.clear();
-        start.objects.push(ObjectStart {
-            object: self.cube_task.cube(),
-            position,
-            orientation: cube_orientation(config, yaw_u, options),
-            properties: randomised.then_some((size, mass, friction)),
-        });
-        start.goal.clear();
-        start.goal.extend_from_slice(goal.as_slice());
+        start.set([cube], goal.iter().copied());
     }
 
     fn observe(

@@ -37,8 +37,8 @@ use nalgebra::Vector3;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-use super::episode::{cube_orientation, cube_properties};
-use super::{EnvConfig, EpisodeStart, ObjectStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use super::episode::{cube_orientation, CubeProperties};
+use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, ObjectSpec, Scene, Simulation};
 use crate::task::reward::{closeness, RewardContext, RewardFunction};
@@ -155,8 +155,8 @@ impl Task for PickAndPlace {
         let size_u = draw();
         let mass_u = draw();
         let friction_u = draw();
-        let (size, mass, friction, randomised) =
-            cube_properties(config, [size_u, mass_u, friction_u]);
+        let properties = CubeProperties::draw(config, [size_u, mass_u, friction_u]);
+        let size = properties.size;
         let platform_top = config.sim.platform.top_center[2];
         let mut goal = Vector3::new(goal_xy[0], goal_xy[1], platform_top + size / 2.0);
         if air_u < config.goal_air_probability {
@@ -166,23 +166,13 @@ impl Task for PickAndPlace {
         if let Some(g) = options.goal {
             goal = Vector3::from(g);
         }
-        let position = options.cube_position.map_or(
-            Vector3::new(cube_xy[0], cube_xy[1], size / 2.0),
-            Vector3::from,
+        let cube = properties.resting(
+            self.cube(),
+            cube_xy,
+            options.cube_position,
+            cube_orientation(config, yaw_u, options),
         );
-        let object = ObjectStart {
-            object: self.cube(),
-            position,
-            orientation: cube_orientation(config, yaw_u, options),
-            properties: randomised.then_some((size, mass, friction)),
-        };
-        match start.objects.first_mut() {
-            Some(first) => *first = object,
-            None => start.objects.push(object),
-        }
-        start.objects.truncate(1);
-        start.goal.clear();
-        start.goal.extend_from_slice(goal.as_slice());
+        start.set([cube], goal.iter().copied());
     }
 
     fn observe(

@@ -33,7 +33,7 @@ use crate::error::Result;
 use crate::physics::{BodyState, Scene, Simulation};
 use crate::task::config::RewardType;
 use crate::task::reward::{
-    check_batch, closeness, RewardContext, RewardFunction, RewardTerms, GOAL_DIM,
+    closeness, compute_batch_with, RewardContext, RewardFunction, RewardTerms, GOAL_DIM,
 };
 
 /// Move the tool centre point to the goal (see the module documentation).
@@ -105,9 +105,7 @@ impl Task for Reach {
         for i in 0..3 {
             goal[i] = low[i] + (high[i] - low[i]) * rng.random::<f64>();
         }
-        start.objects.clear();
-        start.goal.clear();
-        start.goal.extend_from_slice(&options.goal.unwrap_or(goal));
+        start.set([], options.goal.unwrap_or(goal));
     }
 
     fn observe(
@@ -154,12 +152,10 @@ impl Task for Reach {
         _contexts: &[RewardContext],
         out: &mut [f32],
     ) -> Result<()> {
-        check_batch(achieved, desired, GOAL_DIM, &[], false, out)?;
-        for (i, r) in out.iter_mut().enumerate() {
-            let span = i * GOAL_DIM..(i + 1) * GOAL_DIM;
-            *r = self.reward(&achieved[span.clone()], &desired[span]).2;
-        }
-        Ok(())
+        // The goals alone decide the reward: the contexts are not read.
+        compute_batch_with(achieved, desired, GOAL_DIM, &[], false, out, |a, d, _| {
+            self.reward(a, d).2
+        })
     }
 }
 

@@ -148,6 +148,28 @@ pub struct GoalVerdict {
     pub terms: RewardTerms,
 }
 
+/// A batched reward: checks the arguments ([`check_batch`]), then writes `reward(achieved,
+/// desired, context)` of each of the `n` transitions into `out` (the default context when
+/// `contexts` is empty).
+pub fn compute_batch_with(
+    achieved: &[f32],
+    desired: &[f32],
+    goal_dim: usize,
+    contexts: &[RewardContext],
+    needs_context: bool,
+    out: &mut [f32],
+    reward: impl Fn(&[f32], &[f32], &RewardContext) -> f32,
+) -> Result<()> {
+    check_batch(achieved, desired, goal_dim, contexts, needs_context, out)?;
+    let empty = RewardContext::default();
+    for (i, r) in out.iter_mut().enumerate() {
+        let span = i * goal_dim..(i + 1) * goal_dim;
+        let context = contexts.get(i).unwrap_or(&empty);
+        *r = reward(&achieved[span.clone()], &desired[span], context);
+    }
+    Ok(())
+}
+
 /// Checks the arguments of a batched reward for goals of `goal_dim` entries: `achieved` and
 /// `desired` hold `n x goal_dim` finite values, `out` has room for `n` rewards and `contexts`
 /// holds one entry per transition (or none, unless `needs_context`). Returns `n`.
@@ -271,16 +293,15 @@ impl RewardFunction {
         out: &mut [f32],
     ) -> Result<()> {
         let needs_context = self.reward_type == RewardType::Dense;
-        check_batch(achieved, desired, GOAL_DIM, contexts, needs_context, out)?;
-        let empty = RewardContext::default();
-        for (i, r) in out.iter_mut().enumerate() {
-            let span = i * GOAL_DIM..(i + 1) * GOAL_DIM;
-            let context = contexts.get(i).unwrap_or(&empty);
-            *r = self
-                .evaluate(&achieved[span.clone()], &desired[span], context)
-                .reward;
-        }
-        Ok(())
+        compute_batch_with(
+            achieved,
+            desired,
+            GOAL_DIM,
+            contexts,
+            needs_context,
+            out,
+            |a, d, c| self.evaluate(a, d, c).reward,
+        )
     }
 }
 

@@ -47,13 +47,15 @@ use nalgebra::Vector3;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-use super::episode::{cube_orientation, cube_properties};
-use super::{EnvConfig, EpisodeStart, ObjectStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use super::episode::{cube_orientation, CubeProperties};
+use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, ObjectSpec, ObjectTouch, Scene, Simulation};
 use crate::task::config::RewardType;
 use crate::task::pick_and_place::{norm, write_cube_slots};
-use crate::task::reward::{check_batch, closeness, RewardContext, RewardFunction, RewardTerms};
+use crate::task::reward::{
+    closeness, compute_batch_with, RewardContext, RewardFunction, RewardTerms,
+};
 
 /// The task's observation slots, after the robot's: five per cube.
 const SLOTS: [SlotSpec; 10] = [
@@ -218,8 +220,8 @@ impl Task for Stack {
         let size_u = draw();
         let mass_u = draw();
         let friction_u = draw();
-        let (size, mass, friction, randomised) =
-            cube_properties(config, [size_u, mass_u, friction_u]);
+        let properties = CubeProperties::draw(config, [size_u, mass_u, friction_u]);
+        let size = properties.size;
         // The two halves of the pick region along y, a gap between them.
         let region = config.pick_region;
         let middle = (region.low[1] + region.high[1]) / 2.0;
@@ -248,26 +250,14 @@ impl Task for Stack {
             Vector3::from,
         );
         let top_goal = bottom_goal + Vector3::new(0.0, 0.0, size);
-        let properties = randomised.then_some((size, mass, friction));
         let [c1, c2] = self.cubes();
-        start.objects.clear();
-        start.objects.push(ObjectStart {
-            object: c1,
-            position: options
-                .cube_position
-                .map_or(Vector3::new(first[0], first[1], size / 2.0), Vector3::from),
-            orientation: yaw(yaw_u[0]),
-            properties,
-        });
-        start.objects.push(ObjectStart {
-            object: c2,
-            position: Vector3::new(second[0], second[1], size / 2.0),
-            orientation: yaw(yaw_u[1]),
-            properties,
-        });
-        start.goal.clear();
-        start.goal.extend_from_slice(bottom_goal.as_slice());
-        start.goal.extend_from_slice(top_goal.as_slice());
+        start.set(
+            [
+                properties.resting(c1, first, options.cube_position, yaw(yaw_u[0])),
+                properties.resting(c2, second, None, yaw(yaw_u[1])),
+            ],
+            bottom_goal.iter().chain(top_goal.iter()).copied(),
+        );
     }
 
     fn observe(
@@ -339,16 +329,15 @@ impl Task for Stack {
         out: &mut [f32],
     ) -> Result<()> {
         let needs_context = self.config.reward_type == RewardType::Dense;
-        check_batch(achieved, desired, GOAL_DIM, contexts, needs_context, out)?;
-        let empty = RewardContext::default();
-        for (i, r) in out.iter_mut().enumerate() {
-            let span = i * GOAL_DIM..(i + 1) * GOAL_DIM;
-            let context = contexts.get(i).unwrap_or(&empty);
-            *r = self
-                .judge(&achieved[span.clone()], &desired[span], context)
-                .reward;
-        }
-        Ok(())
+        compute_batch_with(
+            achieved,
+            desired,
+            GOAL_DIM,
+            contexts,
+            needs_context,
+            out,
+            |a, d, c| self.judge(a, d, c).reward,
+        )
     }
 }
 
