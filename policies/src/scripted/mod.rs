@@ -11,14 +11,17 @@
 //! along that line (see [`Phase::Align`] and [`Phase::Push`]); `lift` is pick-and-place with
 //! the goal in the air.
 
+mod params;
+mod push;
+
+pub use params::ScriptedParams;
+
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use panda_rapier_core::task::observation::{
     GRIPPER_WIDTH, JOINT_POSITIONS, JOINT_VELOCITIES, TCP_POSITION, TCP_VELOCITY,
 };
 use panda_rapier_core::task::{make_task, ControlMode, EnvConfig, ObservationLayout, TaskKind};
-use panda_rapier_core::{
-    ArmFidelity, Controller, Error, IkOptions, IkWorkspace, Result, Robot, RobotModel,
-};
+use panda_rapier_core::{Controller, Error, IkOptions, IkWorkspace, Result, Robot, RobotModel};
 
 /// What the controller is doing, recognised from the observation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -81,128 +84,6 @@ impl Phase {
             Phase::Reach => "reach",
             Phase::Align => "align",
             Phase::Push => "push",
-        }
-    }
-}
-
-/// Distances and speeds of the sequence. The defaults were tuned on seeded episodes (see the
-/// crate's tests); every length is in metres, every speed a fraction of a full action.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ScriptedParams {
-    /// Height of the hand above the cube's centre while it moves in from afar.
-    pub hover_height: f64,
-    /// Horizontal hand-to-cube distance below which the open hand goes straight down.
-    pub align_tolerance: f64,
-    /// The hand counts as around the cube within this horizontal distance from its centre...
-    pub in_hand_tolerance: f64,
-    /// ...and this vertical one (the finger pads are taller than they are wide).
-    pub in_hand_height: f64,
-    /// Fraction of the remaining distance covered per step on the final approach to the cube
-    /// and to the goal.
-    pub arrival_gain: f64,
-    /// The hand closes only once it moves slower than this (m/s).
-    pub settle_speed: f64,
-    /// Fraction of the hand's velocity times the control period added to its position before
-    /// steering: the arm lags its targets, and this lead keeps it from overshooting.
-    pub velocity_lead: f64,
-    /// Height the held cube's bottom keeps above any surface it is carried over.
-    pub carry_clearance: f64,
-    /// Horizontal cube-to-goal distance below which the cube is lowered.
-    pub place_tolerance: f64,
-    /// Horizontal cube-to-goal distance below which the carry turns into a careful descent.
-    pub arrival_distance: f64,
-    /// The cube is released once its centre is this close above the goal.
-    pub release_height: f64,
-    /// The hand rises this far above the goal after releasing.
-    pub retreat_height: f64,
-    /// `stack`: the hover height used on the way from the stack to the second cube, higher
-    /// than `hover_height` because that way starts low and the arm lags downwards.
-    pub stack_hover_height: f64,
-    /// `stack`: horizontal distance from the top cube to the bottom one below which the top
-    /// cube is lowered onto it (tighter than `place_tolerance`: an overhanging cube slides off).
-    pub stack_place_tolerance: f64,
-    /// `stack`: within this horizontal distance of the bottom cube, the hand rises above it
-    /// before heading for the other cube.
-    pub stack_clear_distance: f64,
-    /// `stack`: within this horizontal distance of the second cube the approach slows...
-    pub stack_slow_distance: f64,
-    /// `stack`: ...to this speed (a fraction of a full action).
-    pub stack_approach_speed: f64,
-    /// `push`: height of the fingertips' path over the cube's top when passing over it.
-    pub push_clearance: f64,
-    /// `push`: height of the TCP above the cube's centre while pushing. The fingertip pads
-    /// reach 8 mm below the TCP, and the fingers' upper parts (from 19 mm above the TCP) stick
-    /// out 12 mm beyond the pads along the fingers' axis: pushed lower, the cube's top edge
-    /// meets those and the cube tips over (200 episodes, `ee` control, dynamic arm, before the
-    /// `push_upright` recovery and the sag correction: 67 % success at 0 mm, 97-99 % at
-    /// 12-14 mm). Higher, the pads push the cube's upper half and it tips forwards.
-    pub push_height: f64,
-    /// `push`: with the dynamic arm, the final descent behind the cube, from this height above
-    /// the passing height down, goes at...
-    pub push_descent_height: f64,
-    /// `push`: ...this speed (a fraction of a full action).
-    pub push_descent_speed: f64,
-    /// `push`: how much of the TCP's shortfall below the pushing height is added to its target.
-    pub push_sag_gain: f64,
-    /// `push`: the largest shortfall (m) corrected.
-    pub push_sag_limit: f64,
-    /// `push`: the hand lets go of a cube tilted more than this (rad)...
-    pub push_upright: f64,
-    /// `push`: ...or pressed this far (m) into the floor.
-    pub push_sink: f64,
-    /// `push`: the hand pushes only once the TCP is within this height above the pushing
-    /// height.
-    pub push_height_tolerance: f64,
-    /// `push`: half the width of the closed fingers, seen from the cube.
-    pub pusher_half_width: f64,
-    /// `push`: gap between the fingers and the cube's back face when lining up.
-    pub push_gap: f64,
-    /// `push`: largest sideways distance from the line through the cube to the goal at which
-    /// the hand keeps pushing; farther, it backs off and lines up again.
-    pub push_line_tolerance: f64,
-    /// `push`: pushing speed, a fraction of a full action.
-    pub push_speed: f64,
-    /// `push`: the cube counts as delivered this close to the goal.
-    pub push_done: f64,
-    /// `push`: the fingers count as closed below this opening (m).
-    pub push_closed_width: f64,
-}
-
-impl Default for ScriptedParams {
-    fn default() -> Self {
-        Self {
-            hover_height: 0.06,
-            align_tolerance: 0.01,
-            in_hand_tolerance: 0.025,
-            in_hand_height: 0.025,
-            velocity_lead: 0.0,
-            settle_speed: 0.1,
-            arrival_gain: 0.5,
-            carry_clearance: 0.015,
-            place_tolerance: 0.015,
-            release_height: 0.004,
-            arrival_distance: 0.05,
-            retreat_height: 0.1,
-            stack_hover_height: 0.18,
-            stack_place_tolerance: 0.003,
-            stack_clear_distance: 0.1,
-            stack_slow_distance: 0.15,
-            stack_approach_speed: 0.5,
-            push_clearance: 0.03,
-            push_height: 0.008,
-            push_descent_height: 0.03,
-            push_descent_speed: 0.35,
-            push_sag_gain: 1.0,
-            push_sag_limit: 0.01,
-            push_upright: 0.25,
-            push_sink: 0.005,
-            push_height_tolerance: 0.008,
-            pusher_half_width: 0.012,
-            push_gap: 0.015,
-            push_line_tolerance: 0.012,
-            push_speed: 0.4,
-            push_done: 0.015,
-            push_closed_width: 0.01,
         }
     }
 }
@@ -532,147 +413,6 @@ impl ScriptedPolicy {
             1.0
         };
         Ok(decision(Phase::Approach, above, speed, 1.0))
-    }
-
-    /// The `push` task: the hand, closed, goes behind the cube on the line from the goal through
-    /// the cube, comes down to the cube's lower half and pushes along that line, backing off
-    /// to line up again whenever the cube drifts off it; it rises off the cube once the cube is
-    /// at the goal. The line is recomputed from every observation, so a cube that turns or
-    /// slides sideways only changes where "behind" is.
-    fn decide_push(
-        &self,
-        observation: &[f32],
-        cube: Vector3<f64>,
-        goal: Vector3<f64>,
-        tcp: Vector3<f64>,
-        width: f64,
-    ) -> Decision {
-        let p = &self.params;
-        let h = self.cube_half;
-        let to_goal = (goal - cube).xy();
-        let distance = to_goal.norm();
-        let decision = |phase, tcp_target, speed, gain| Decision {
-            phase,
-            tcp_target,
-            speed,
-            gain,
-            gripper: -1.0,
-        };
-        // High enough that the fingertips (8 mm below the TCP) pass over the cube.
-        let over = cube.z + h + p.push_clearance;
-        if distance < p.push_done {
-            // At the goal: rise straight up, off the cube.
-            let up = Vector3::new(tcp.x, tcp.y, tcp.z.max(over));
-            return decision(Phase::Retreat, up, 0.5, 1.0);
-        }
-        let u = to_goal / distance;
-        let n = nalgebra::Vector2::new(-u.y, u.x);
-        // How far the cube reaches from its centre along the push direction (its support in
-        // that direction, whatever its orientation: it may have turned or tipped over).
-        let mut upright = 1.0;
-        let extent = match &self.slots.cube_orientation {
-            Some(slot) => {
-                let q = &observation[slot.start..slot.start + 4];
-                let rotation = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
-                    q[3] as f64,
-                    q[0] as f64,
-                    q[1] as f64,
-                    q[2] as f64,
-                ))
-                .to_rotation_matrix();
-                let m = rotation.matrix();
-                upright = (0..3).map(|i| m[(2, i)].abs()).fold(0.0, f64::max);
-                (0..3)
-                    .map(|i| (m[(0, i)] * u.x + m[(1, i)] * u.y).abs())
-                    .sum::<f64>()
-                    * h
-            }
-            None => h,
-        };
-        let relative = (tcp - cube).xy();
-        let along = relative.dot(&u);
-        let across = relative.dot(&n);
-        let floor = self.config.surface_height(tcp.x, tcp.y) + self.config.ee_surface_clearance;
-        let push_z = (cube.z + p.push_height).max(floor);
-        let closed = width < p.push_closed_width;
-        let low = tcp.z < over - 0.01;
-        // Fully behind the cube's back face: free to move sideways at pushing height.
-        let behind = along < -(extent + p.pusher_half_width);
-        let behind_point = cube.xy() - u * (extent + p.pusher_half_width + p.push_gap);
-        let at = |xy: nalgebra::Vector2<f64>, z: f64| Vector3::new(xy.x, xy.y, z);
-        let at_height = tcp.z < push_z + p.push_height_tolerance;
-        // The cube tilting, or pressed into the floor: the fingers are riding onto it (it
-        // would wedge itself and stop). Let go upwards; it settles, and the approach starts
-        // over.
-        let jammed = upright < p.push_upright.cos() || cube.z < h - p.push_sink;
-        if jammed && low {
-            let up = Vector3::new(tcp.x, tcp.y, over + 0.01);
-            return decision(Phase::Align, up, 1.0, 1.0);
-        }
-        if closed && at_height && along < -0.5 * extent && across.abs() < p.push_line_tolerance {
-            // On the line behind the cube: push, steering back onto the line, slowing down
-            // as the cube nears the goal.
-            let advance = (p.push_speed * self.config.ee_step).min(distance);
-            let target = cube.xy() + u * (along + advance);
-            let gain = if distance < p.arrival_distance {
-                p.arrival_gain
-            } else {
-                1.0
-            };
-            // The pushing arm sags under the contact (the dynamic arm by several millimetres):
-            // aim above the pushing height by the shortfall, as a proportional correction.
-            let sag = (push_z - tcp.z).clamp(0.0, p.push_sag_limit);
-            let z = push_z + p.push_sag_gain * sag / gain;
-            return decision(Phase::Push, at(target, z), 1.0, gain);
-        }
-        // Behind the cube (or just short of its back face, straight behind it) but off the
-        // line or not down yet: line up at pushing height before touching the cube (coming
-        // down on it tips it over). Still touching it: straight back first (moved sideways,
-        // the fingers would drag it along and tip it).
-        if closed && low && (behind || (along < -extent && across.abs() < extent)) {
-            let touching = along > -(extent + p.pusher_half_width + 0.5 * p.push_gap);
-            let target = if touching {
-                tcp.xy() - u * p.push_gap
-            } else {
-                behind_point
-            };
-            return decision(Phase::Align, at(target, push_z), 1.0, p.arrival_gain);
-        }
-        if low && !behind {
-            // Beside or in front of the cube: up before anything else.
-            let up = Vector3::new(tcp.x, tcp.y, over + 0.01);
-            let target = if tcp.z > over - 0.02 {
-                at(behind_point, over + 0.01)
-            } else {
-                up
-            };
-            return decision(Phase::Align, target, 1.0, 1.0);
-        }
-        // Above: fly to the point behind the cube, coming down along a funnel once behind its
-        // back face (descending there cannot land on the cube), but not before the hand has
-        // closed.
-        let off = (tcp.xy() - behind_point).norm();
-        // The last stretch down is taken in halves: the arm carries momentum, and a hand
-        // overshooting into the floor next to the cube knocks it over.
-        let down = push_z + off.max(p.arrival_gain * (tcp.z - push_z));
-        let mut z = if behind { down } else { over + 0.01 };
-        if !closed {
-            z = z.max(over + 0.01);
-        }
-        // Slow down for the last few centimetres: the dynamic arm overshoots downwards
-        // otherwise (the kinematic one follows its targets).
-        let dynamic = self.config.arm == ArmFidelity::Dynamic;
-        let speed = if dynamic && behind && tcp.z < over + p.push_descent_height {
-            p.push_descent_speed
-        } else {
-            1.0
-        };
-        decision(
-            Phase::Align,
-            at(behind_point, z.min(tcp.z.max(over + 0.01))),
-            speed,
-            1.0,
-        )
     }
 
     /// Writes the action for one observation into `action` (length [`Self::action_dim`]) and
