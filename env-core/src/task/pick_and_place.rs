@@ -40,7 +40,7 @@ use rand_chacha::ChaCha8Rng;
 use super::episode::{cube_orientation, CubeProperties};
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
-use crate::physics::{BodyState, ObjectId, ObjectSpec, Scene, Simulation};
+use crate::physics::{BodyState, ObjectId, Scene, Simulation};
 use crate::task::reward::{closeness, RewardContext, RewardFunction};
 
 /// The task's observation slots, after the robot's.
@@ -118,11 +118,7 @@ impl Task for PickAndPlace {
     }
 
     fn scene(&self, config: &EnvConfig) -> Scene {
-        let sim = &config.sim;
-        Scene {
-            platform: true,
-            objects: vec![ObjectSpec::cube("cube", sim, sim.cube.position)],
-        }
+        Scene::tutorial(&config.sim)
     }
 
     fn bind(&mut self, sim: &Simulation) -> Result<()> {

@@ -51,7 +51,7 @@ use rand_chacha::ChaCha8Rng;
 use super::episode::{cube_orientation, CubeProperties};
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
-use crate::physics::{BodyState, ObjectSpec, Scene, Simulation};
+use crate::physics::{BodyState, Scene, Simulation};
 use crate::task::pick_and_place::PickAndPlace;
 use crate::task::reward::RewardContext;
 
@@ -79,10 +79,10 @@ impl Task for Push {
     }
 
     fn scene(&self, config: &EnvConfig) -> Scene {
-        let sim = &config.sim;
+        // The tutorial's cube, without the platform.
         Scene {
             platform: false,
-            objects: vec![ObjectSpec::cube("cube", sim, sim.cube.position)],
+            ..Scene::tutorial(&config.sim)
         }
     }
 
