@@ -17,6 +17,7 @@ fn renderer(width: u32, height: u32) -> Renderer {
         width,
         height,
         camera: CameraConfig::default(),
+        show_goal: true,
     })
     .unwrap()
 }
@@ -156,6 +157,7 @@ fn unusual_cameras_draw_without_panicking() {
             width: 64,
             height: 48,
             camera,
+            show_goal: true,
         })
         .unwrap();
         assert_eq!(r.render(&env).rgb().len(), 64 * 48 * 3);

@@ -40,7 +40,7 @@ pub use task::{
     ControlMode, EnvConfig, EnvSnapshot, ObservationLayout, PandaEnv, ResetOptions, RewardType,
     StepInfo, Task, TaskKind, Transition,
 };
-pub use vector::{AutoresetMode, PandaVecEnv};
+pub use vector::{AutoresetMode, PandaVecEnv, Sensor};
 
 /// Re-exported so users can name the math types of the API without a second nalgebra.
 pub use nalgebra;

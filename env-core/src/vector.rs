@@ -4,6 +4,10 @@
 //! Environment `i` draws from random stream `(seed, i)` and is stepped by whichever thread picks
 //! it up, touching nothing shared, so results are bit-identical for any thread count, and
 //! environment `i` behaves the same whatever the number of environments.
+//!
+//! A [`Sensor`] per environment (camera images, from the renderer crate) adds bytes to every
+//! observation: it runs on the lane's thread right after the state observation is written,
+//! including for same-step final observations, before the reset that follows them.
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -42,10 +46,42 @@ impl AutoresetMode {
     }
 }
 
+/// Extra observation bytes computed from an environment's state (camera images): one per
+/// environment of a [`PandaVecEnv`], see [`PandaVecEnv::set_sensors`].
+///
+/// `observe` must depend on the environment's state only (not on earlier calls), so that an
+/// environment's sensor bytes are the same whatever the thread count or batch size.
+pub trait Sensor: Send + Sync {
+    /// Bytes written per observation.
+    fn len(&self) -> usize;
+    /// Whether it writes nothing.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Writes the observation of `env`'s current state into `out` (exactly [`Sensor::len`] bytes).
+    fn observe(&mut self, env: &PandaEnv, out: &mut [u8]);
+}
+
+/// A lane's sensor and its latest outputs.
+struct SensorSlot {
+    sensor: Box<dyn Sensor>,
+    data: Vec<u8>,
+    final_data: Vec<u8>,
+}
+
+impl std::fmt::Debug for SensorSlot {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SensorSlot")
+            .field("len", &self.data.len())
+            .finish_non_exhaustive()
+    }
+}
+
 /// One environment and its latest outputs.
 #[derive(Debug)]
 struct Lane {
     env: PandaEnv,
+    sensor: Option<SensorSlot>,
     transition: Transition,
     reset_info: StepInfo,
     has_final: bool,
@@ -56,7 +92,25 @@ struct Lane {
     error: Option<Error>,
 }
 
-/// N pick-and-place environments stepped in parallel.
+impl Lane {
+    /// Writes the environment's current observation into `obs` and its sensor's bytes.
+    fn observe(&mut self, obs: &mut [f32]) {
+        obs.copy_from_slice(self.env.observation());
+        if let Some(slot) = &mut self.sensor {
+            slot.sensor.observe(&self.env, &mut slot.data);
+        }
+    }
+
+    /// Writes the environment's current observation as a final observation.
+    fn observe_final(&mut self, final_obs: &mut [f32]) {
+        final_obs.copy_from_slice(self.env.observation());
+        if let Some(slot) = &mut self.sensor {
+            slot.sensor.observe(&self.env, &mut slot.final_data);
+        }
+    }
+}
+
+/// N  environments stepped in parallel.
 pub struct PandaVecEnv {
     lanes: Vec<Lane>,
     pool: Option<rayon::ThreadPool>,
@@ -131,6 +185,7 @@ impl PandaVecEnv {
             .into_iter()
             .map(|env| Lane {
                 env,
+                sensor: None,
                 transition: Transition::default(),
                 reset_info: StepInfo::default(),
                 has_final: false,
@@ -279,6 +334,66 @@ impl PandaVecEnv {
         self.lane(i).map(|l| &l.reset_info)
     }
 
+    /// Gives every environment a sensor (`sensors[i]` for environment `i`; all of the same
+    /// [`Sensor::len`]) and fills its bytes from the current state; an empty vector removes
+    /// them. Sensor bytes then follow every reset and step, see [`PandaVecEnv::sensor_data`].
+    pub fn set_sensors(&mut self, sensors: Vec<Box<dyn Sensor>>) -> Result<()> {
+        if sensors.is_empty() {
+            for lane in &mut self.lanes {
+                lane.sensor = None;
+            }
+            return Ok(());
+        }
+        ensure_len("sensors", self.lanes.len(), sensors.len())?;
+        let len = sensors[0].len();
+        if let Some(other) = sensors.iter().map(|s| s.len()).find(|&l| l != len) {
+            return Err(Error::InvalidConfig {
+                field: "sensors".into(),
+                reason: format!("all sensors must write the same length, got {len} and {other}"),
+            });
+        }
+        for (lane, sensor) in self.lanes.iter_mut().zip(sensors) {
+            lane.sensor = Some(SensorSlot {
+                sensor,
+                data: vec![0; len],
+                final_data: vec![0; len],
+            });
+        }
+        self.for_each_lane(&[], |_, lane, obs, _final, _action| lane.observe(obs))
+    }
+
+    /// Bytes per environment written by the sensors (0 without sensors).
+    pub fn sensor_len(&self) -> usize {
+        self.lanes[0].sensor.as_ref().map_or(0, |s| s.data.len())
+    }
+
+    /// The sensors' bytes for the current observations, environment after environment, into
+    /// `out` (`num_envs x` [`PandaVecEnv::sensor_len`]).
+    pub fn sensor_data(&self, out: &mut [u8]) -> Result<()> {
+        self.copy_sensor(out, |s| &s.data)
+    }
+
+    /// The sensors' bytes for the final observations (see
+    /// [`PandaVecEnv::final_observations`]; stale where
+    /// [`PandaVecEnv::has_final_observation`] is false), into `out`.
+    pub fn final_sensor_data(&self, out: &mut [u8]) -> Result<()> {
+        self.copy_sensor(out, |s| &s.final_data)
+    }
+
+    fn copy_sensor(&self, out: &mut [u8], which: impl Fn(&SensorSlot) -> &Vec<u8>) -> Result<()> {
+        let len = self.sensor_len();
+        ensure_len("sensor buffer", self.lanes.len() * len, out.len())?;
+        if len == 0 {
+            return Ok(());
+        }
+        for (lane, row) in self.lanes.iter().zip(out.chunks_exact_mut(len)) {
+            if let Some(slot) = &lane.sensor {
+                row.copy_from_slice(which(slot));
+            }
+        }
+        Ok(())
+    }
+
     /// Resets every environment; environment `i` is seeded from `(seed, i)` when a seed is given.
     pub fn reset(&mut self, seed: Option<u64>) -> Result<()> {
         let mask = vec![true; self.lanes.len()];
@@ -308,7 +423,7 @@ impl PandaVecEnv {
                         info: *info,
                         ..Transition::default()
                     };
-                    obs.copy_from_slice(lane.env.observation());
+                    lane.observe(obs);
                 }
                 Err(e) => lane.error = Some(e),
             }
@@ -369,14 +484,14 @@ impl PandaVecEnv {
                 }
                 lane.ended = false;
                 lane.was_reset = true;
-                obs.copy_from_slice(lane.env.observation());
+                lane.observe(obs);
                 return;
             }
             let transition = lane.env.step_checked(action);
             lane.transition = transition;
             let done = transition.terminated || transition.truncated;
             if done && autoreset == AutoresetMode::SameStep {
-                final_obs.copy_from_slice(lane.env.observation());
+                lane.observe_final(final_obs);
                 lane.has_final = true;
                 match lane.env.reset(None, &options) {
                     Ok(info) => lane.reset_info = *info,
@@ -385,7 +500,7 @@ impl PandaVecEnv {
             } else {
                 lane.ended = done;
             }
-            obs.copy_from_slice(lane.env.observation());
+            lane.observe(obs);
         })?;
         self.gather(None)
     }

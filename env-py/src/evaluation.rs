@@ -10,6 +10,7 @@ use pyo3::types::PyDict;
 use crate::convert::contiguous;
 use crate::env::parse_config;
 use crate::errors::{detached, invalid, to_py, ErrorClass};
+use crate::render::{camera_sensors, image_rows};
 
 /// An evaluation in progress (see `panda_rapier.evaluation.evaluate`).
 #[pyclass(module = "panda_rapier._native", name = "Evaluation")]
@@ -90,6 +91,18 @@ impl NativeEvaluation {
     /// The full configuration as JSON (defaults filled in).
     fn config_json(&self) -> String {
         serde_json::to_string(self.evaluation.envs().config()).unwrap_or_default()
+    }
+
+    /// Gives the environments observation cameras (as `PandaVecEnv.set_cameras`).
+    fn set_cameras(&mut self, py: Python<'_>, cameras_json: &str) -> PyResult<()> {
+        let sensors = camera_sensors(py, cameras_json, self.evaluation.num_envs())?;
+        let evaluation = &mut self.evaluation;
+        detached(py, || evaluation.set_sensors(sensors))?.map_err(|e| to_py(py, e))
+    }
+
+    /// The cameras' images of the current observations, `num_envs x` bytes per environment.
+    fn images<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<u8>>> {
+        image_rows(py, self.evaluation.envs(), "current")
     }
 
     /// The current observations, `num_envs x observation_dim` float32 (flat layout).

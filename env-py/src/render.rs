@@ -1,14 +1,15 @@
 //! `Renderer`: the CPU renderer, drawing a `PandaEnv` or one environment of a
-//! `PandaVecEnv` or of a `Evaluation` into an HxWx3 uint8 array.
+//! `PandaVecEnv` or of a `Evaluation` into an HxWx3 uint8 array; `Cameras`: the image
+//! observations of one `PandaEnv` (a `PandaVecEnv` runs its own, see `set_cameras`).
 
 use numpy::ndarray::Array3;
-use numpy::{IntoPyArray, PyArray3};
-use panda_rapier_core::PandaEnv;
-use panda_rapier_render::{RenderConfig, Renderer};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods};
+use panda_rapier_core::{PandaEnv, PandaVecEnv, Sensor};
+use panda_rapier_render::{Cameras, RenderConfig, Renderer};
 use pyo3::prelude::*;
 
 use crate::env::NativeEnv;
-use crate::errors::{detached, to_py};
+use crate::errors::{detached, invalid, to_py, ErrorClass};
 use crate::evaluation::NativeEvaluation;
 use crate::vector::NativeVecEnv;
 
@@ -98,4 +99,84 @@ impl NativeRenderer {
             .map_err(|e| to_py(py, e))?;
         self.draw(py, env)
     }
+}
+
+/// The observation cameras of one environment: their images, one after the other, as one
+/// uint8 array (the same bytes a `PandaVecEnv` with `set_cameras` gives its environments).
+#[pyclass(module = "panda_rapier._native", name = "Cameras")]
+pub struct NativeCameras {
+    cameras: Cameras,
+}
+
+#[pymethods]
+impl NativeCameras {
+    /// From a JSON list of `{"key": ..., "render": {"width", "height", "camera", "show_goal"}}`.
+    #[new]
+    fn new(py: Python<'_>, cameras_json: &str) -> PyResult<Self> {
+        let cameras = Cameras::from_json(cameras_json).map_err(|e| to_py(py, e))?;
+        Ok(Self { cameras })
+    }
+
+    /// The observation keys, in order.
+    #[getter]
+    fn keys(&self) -> Vec<String> {
+        self.cameras.keys().to_vec()
+    }
+
+    /// Each image's shape `(height, width, 3)`, in order.
+    #[getter]
+    fn shapes(&self) -> Vec<(usize, usize, usize)> {
+        self.cameras.shapes()
+    }
+
+    /// The images of the environment's current state, flat (all cameras in order).
+    fn observe<'py>(
+        &mut self,
+        py: Python<'py>,
+        env: PyRef<'py, NativeEnv>,
+    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let cameras = &mut self.cameras;
+        let env = &env.env;
+        let mut out = vec![0; cameras.len()];
+        detached(py, || cameras.observe(env, &mut out))?;
+        Ok(PyArray1::from_vec(py, out))
+    }
+}
+
+/// One `Cameras` sensor per environment from `cameras_json` (none for `"[]"`).
+pub(crate) fn camera_sensors(
+    py: Python<'_>,
+    cameras_json: &str,
+    num_envs: usize,
+) -> PyResult<Vec<Box<dyn Sensor>>> {
+    if cameras_json.trim() == "[]" {
+        return Ok(Vec::new());
+    }
+    let cameras = Cameras::from_json(cameras_json).map_err(|e| to_py(py, e))?;
+    Ok((0..num_envs)
+        .map(|_| Box::new(cameras.clone()) as Box<dyn Sensor>)
+        .collect())
+}
+
+/// A vector env's sensor bytes (`which`: `"current"` or `"final"` observations),
+/// `num_envs x` bytes per environment.
+pub(crate) fn image_rows<'py>(
+    py: Python<'py>,
+    vec: &PandaVecEnv,
+    which: &str,
+) -> PyResult<Bound<'py, PyArray2<u8>>> {
+    let mut out = vec![0; vec.num_envs() * vec.sensor_len()];
+    let copied = match which {
+        "current" => vec.sensor_data(&mut out),
+        "final" => vec.final_sensor_data(&mut out),
+        other => {
+            return Err(invalid(
+                py,
+                ErrorClass::InvalidArgument,
+                format!("which must be 'current' or 'final', got {other:?}"),
+            ))
+        }
+    };
+    copied.map_err(|e| to_py(py, e))?;
+    PyArray1::from_vec(py, out).reshape([vec.num_envs(), vec.sensor_len()])
 }

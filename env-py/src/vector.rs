@@ -9,6 +9,7 @@ use pyo3::types::PyDict;
 use crate::convert::{compute_reward, contiguous, info_columns, info_dicts, ContextColumns};
 use crate::env::parse_config;
 use crate::errors::{detached, invalid, to_py, ErrorClass};
+use crate::render::{camera_sensors, image_rows};
 
 /// N environments stepped in parallel.
 #[pyclass(module = "panda_rapier._native", name = "PandaVecEnv")]
@@ -152,6 +153,22 @@ impl NativeVecEnv {
             PyArray1::from_slice(py, self.vec.terminated()),
             PyArray1::from_slice(py, self.vec.truncated()),
         ))
+    }
+
+    /// Gives every environment the observation cameras of `cameras_json` (a JSON list of
+    /// `{"key": ..., "render": {...}}`; `"[]"` removes them): their images are drawn on the
+    /// environments' threads after every step and reset, see `images`.
+    fn set_cameras(&mut self, py: Python<'_>, cameras_json: &str) -> PyResult<()> {
+        let sensors = camera_sensors(py, cameras_json, self.vec.num_envs())?;
+        let vec = &mut self.vec;
+        detached(py, || vec.set_sensors(sensors))?.map_err(|e| to_py(py, e))
+    }
+
+    /// The cameras' images of the current observations (`which="final"`: of the final
+    /// observations), `num_envs x` bytes per environment (all cameras in order).
+    #[pyo3(signature = (which = "current"))]
+    fn images<'py>(&self, py: Python<'py>, which: &str) -> PyResult<Bound<'py, PyArray2<u8>>> {
+        image_rows(py, &self.vec, which)
     }
 
     /// Last observations of the episodes that ended in the last step (same-step autoreset;

@@ -45,7 +45,7 @@
 //! between them (a video of environment 0 shows the last state of each episode).
 
 use panda_rapier_core::task::EnvConfig;
-use panda_rapier_core::{AutoresetMode, Error, PandaVecEnv, Result};
+use panda_rapier_core::{AutoresetMode, Error, PandaVecEnv, Result, Sensor};
 
 use crate::ScriptedPolicy;
 
@@ -255,6 +255,12 @@ impl Evaluation {
     /// are the evaluation's).
     pub fn envs(&self) -> &PandaVecEnv {
         &self.envs
+    }
+
+    /// Gives the environments sensors (camera images; see [`PandaVecEnv::set_sensors`]), for
+    /// policies that observe more than the state.
+    pub fn set_sensors(&mut self, sensors: Vec<Box<dyn Sensor>>) -> Result<()> {
+        self.envs.set_sensors(sensors)
     }
 
     /// The current observations, `num_envs x observation_dim`, row-major (flat layout): what

@@ -23,7 +23,9 @@ pub mod camera;
 pub mod mesh;
 pub mod raster;
 mod scene;
+mod sensor;
 
 pub use camera::{Camera, CameraConfig};
 pub use raster::Frame;
 pub use scene::{RenderConfig, Renderer, MAX_SIZE};
+pub use sensor::{Cameras, ObservationCamera};

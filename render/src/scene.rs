@@ -23,6 +23,9 @@ pub struct RenderConfig {
     pub height: u32,
     /// The camera.
     pub camera: CameraConfig,
+    /// Whether the goal markers are drawn (default true; observation cameras leave them out,
+    /// so that a relabelled goal never contradicts the picture).
+    pub show_goal: bool,
 }
 
 impl Default for RenderConfig {
@@ -31,6 +34,7 @@ impl Default for RenderConfig {
             width: 720,
             height: 480,
             camera: CameraConfig::default(),
+            show_goal: true,
         }
     }
 }
@@ -73,7 +77,8 @@ const SKY_TOP: [f64; 3] = [150.0, 180.0, 215.0];
 const SKY_HORIZON: [f64; 3] = [222.0, 230.0, 238.0];
 const FLOOR: [[u8; 3]; 2] = [[196, 196, 190], [172, 174, 170]];
 const PLATFORM: [u8; 3] = [176, 132, 86];
-const CUBE: [u8; 3] = [214, 52, 40];
+/// Object colours, by the object's index in the task's scene (a second cube is blue).
+const OBJECTS: [[u8; 3]; 3] = [[214, 52, 40], [40, 92, 214], [226, 178, 32]];
 const GOAL: [u8; 3] = [40, 190, 80];
 const LINK: [u8; 3] = [236, 236, 236];
 const HAND: [u8; 3] = [70, 70, 76];
@@ -156,7 +161,7 @@ impl Renderer {
                     }
                     PLATFORM
                 }
-                VisualTag::Object { .. } => CUBE,
+                VisualTag::Object { index } => OBJECTS[index % OBJECTS.len()],
                 VisualTag::RobotLink { finger: true, .. } => HAND,
                 VisualTag::RobotLink { link, .. } => {
                     let name = links.get(link).map_or("", |l| l.name.as_str());
@@ -170,6 +175,7 @@ impl Renderer {
             let casts = !matches!(p.tag, VisualTag::Platform);
             self.draw_primitive(p, color, &light, casts);
         }
+        let goal = if self.config.show_goal { goal } else { &[] };
         for goal in goal
             .chunks_exact(3)
             .filter(|g| g.iter().all(|x| x.is_finite()))

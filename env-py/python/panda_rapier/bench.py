@@ -123,8 +123,19 @@ def _shape(space: gym.Space[Any]) -> tuple[int, ...]:
     return space.shape
 
 
-def _single_env_case(env_id: str, policy: str, steps: int, config: dict[str, Any]) -> BenchCase:
-    env = gym.make(env_id, **config)
+def _images(image_size: int | None) -> tuple[str, dict[str, Any]]:
+    """The target's label suffix and the options of image observations (``state+rgb``, one
+    camera of ``image_size`` pixels, so the scripted policy still reads the state)."""
+    if image_size is None:
+        return "", {}
+    return f" +rgb {image_size}px", {"obs_mode": "state+rgb", "image_size": image_size}
+
+
+def _single_env_case(
+    env_id: str, policy: str, steps: int, config: dict[str, Any], image_size: int | None = None
+) -> BenchCase:
+    suffix, images = _images(image_size)
+    env = gym.make(env_id, **config, **images)
     obs, _ = env.reset(seed=0)
     scripted = ScriptedPolicy(env) if policy == "scripted" else None
     actions = np.random.default_rng(0).uniform(-1, 1, (steps, *_shape(env.action_space)))
@@ -139,15 +150,21 @@ def _single_env_case(env_id: str, policy: str, steps: int, config: dict[str, Any
         state["obs"] = obs
 
     dt = float(env.get_wrapper_attr("dt"))
-    return BenchCase("gym.make", policy, 1, dt, lambda n: _timed(step, n), close=env.close)
+    return BenchCase("gym.make" + suffix, policy, 1, dt, lambda n: _timed(step, n), close=env.close)
 
 
 def _vector_case(
-    env_id: str, policy: str, num_envs: int, threads: int | None, config: dict[str, Any]
+    env_id: str,
+    policy: str,
+    num_envs: int,
+    threads: int | None,
+    config: dict[str, Any],
+    image_size: int | None = None,
 ) -> BenchCase:
     from .vector import PandaVectorEnv
 
-    envs = PandaVectorEnv(num_envs, num_threads=threads, **env_config(env_id, **config))
+    suffix, images = _images(image_size)
+    envs = PandaVectorEnv(num_envs, num_threads=threads, **env_config(env_id, **config), **images)
     obs, _ = envs.reset(seed=0)
     scripted = ScriptedPolicy(envs) if policy == "scripted" else None
     rng = np.random.default_rng(0)
@@ -165,7 +182,7 @@ def _vector_case(
         state["obs"] = obs
 
     return BenchCase(
-        "vector",
+        "vector" + suffix,
         policy,
         num_envs,
         float(envs.dt),
@@ -294,10 +311,13 @@ def run_benchmark(
     env_steps: int = 4000,
     peers: bool = True,
     progress: Callable[[int, int, str], None] | None = None,
+    image_sizes: Sequence[int] = (),
     **config: Any,
 ) -> dict[str, Any]:
     """Runs every case ``rounds`` times (each run: about ``env_steps`` environment steps) and
-    returns the report (see the module documentation)."""
+    returns the report (see the module documentation). Each of ``image_sizes`` adds the
+    ``gym.make`` and ``vector`` cases again with image observations (``obs_mode="state+rgb"``,
+    one camera, square images of that many pixels)."""
     targets, policies = list(targets), list(policies)
     builders: list[Callable[[], BenchCase | None]] = []
     for policy in policies:
@@ -308,6 +328,12 @@ def run_benchmark(
                 builders.append(partial(_vector_case, env_id, policy, n, threads, config))
             if "sb3" in targets and importlib.util.find_spec("stable_baselines3") is not None:
                 builders.append(partial(_sb3_case, env_id, policy, n, threads, config))
+        for size in image_sizes:
+            if "gym.make" in targets:
+                builders.append(partial(_single_env_case, env_id, policy, env_steps, config, size))
+            for n in num_envs:
+                if "vector" in targets:
+                    builders.append(partial(_vector_case, env_id, policy, n, threads, config, size))
     missing = []
     if peers:
         found = available_peers()
@@ -356,6 +382,7 @@ def run_benchmark(
         "threads": threads,
         "rounds": rounds,
         "env_steps_per_run": env_steps,
+        "image_sizes": list(image_sizes),
         "results": rows,
         "ratios": _ratios(cases),
         "peers_missing": sorted(set(missing)),

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from . import __version__
-from .errors import PandaRapierError
+from .errors import ConfigError, PandaRapierError
 from .registration import ENV_IDS, env_config
 
 DEFAULT_ENV_ID = "panda_rapier/PickAndPlace-v0"
@@ -156,6 +156,15 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--rounds", type=_positive, default=3, help="repeats (median reported)")
     bench.add_argument(
         "--env-steps", type=_positive, default=4000, help="environment steps per measurement"
+    )
+    bench.add_argument(
+        "--image-sizes",
+        type=_positive,
+        nargs="*",
+        default=[],
+        metavar="PX",
+        help="also measure gym.make and vector with image observations of these sizes "
+        "(obs_mode=state+rgb, one camera; e.g. 64 84 128)",
     )
     bench.add_argument("--no-peers", action="store_true", help="skip the peer environments")
     bench.add_argument("--json", type=Path, default=None, help="write the report here")
@@ -410,6 +419,7 @@ def _run_bench(args: argparse.Namespace) -> int:
             env_steps=args.env_steps,
             peers=not args.no_peers,
             progress=progress,
+            image_sizes=args.image_sizes,
             arm=args.arm,
         )
     print(format_report(report))
@@ -443,6 +453,38 @@ def _model_control_mode(model_path: Path) -> str:
     return "joints" if shape == (8,) else "ee"
 
 
+def _model_observation(model_path: Path) -> dict[str, Any]:
+    """The image options (``obs_mode``, ``image_size``) a saved model was trained with, read off
+    its observation space: none for state observations. Images under keys other than the default
+    camera's ``rgb`` need their cameras, which only the Python API takes."""
+    import numpy as np
+    from gymnasium import spaces
+    from stable_baselines3.common.save_util import load_from_zip_file
+
+    data, _, _ = load_from_zip_file(model_path, load_data=True, device="cpu")
+    space = (data or {}).get("observation_space")
+    if not isinstance(space, spaces.Dict):
+        return {}
+    images = {
+        k: v for k, v in space.spaces.items() if isinstance(v, spaces.Box) and v.dtype == np.uint8
+    }
+    if not images:
+        return {}
+    if set(images) != {"rgb"}:
+        raise ConfigError(
+            f"{model_path} observes the cameras {sorted(images)}: evaluate it from Python with "
+            "panda_rapier.evaluation.evaluate(..., cameras=...)"
+        )
+    shape = images["rgb"].shape
+    assert shape is not None
+    # Saved as SB3's VecTransposeImage passed it on: channels first.
+    height, width = (shape[1], shape[2]) if shape[0] == 3 else (shape[0], shape[1])
+    return {
+        "obs_mode": "state+rgb" if "observation" in space.spaces else "rgb",
+        "image_size": (int(height), int(width)),
+    }
+
+
 def _run_eval(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
@@ -457,6 +499,7 @@ def _run_eval(args: argparse.Namespace) -> int:
     if args.arm is not None:
         overrides["arm"] = args.arm
 
+    observation: dict[str, Any] = {}
     if args.policy == "scripted":
         config = env_config(args.env_id or DEFAULT_ENV_ID, **overrides)
         policy: Any = ScriptedPolicy(config)
@@ -477,10 +520,13 @@ def _run_eval(args: argparse.Namespace) -> int:
             overrides["control_mode"] = _model_control_mode(model_path)
         from .sb3 import make_vec_env
 
+        observation = _model_observation(model_path)
         # The model is loaded with an environment of the evaluation's spaces: a mismatch is
         # reported by stable-baselines3, and hindsight replay buffers need one.
         model = load_sb3_model(
-            model_path, env=make_vec_env(env_id, n_envs=1, **overrides), algo=args.algo
+            model_path,
+            env=make_vec_env(env_id, n_envs=1, **overrides, **observation),
+            algo=args.algo,
         )
         config = env_config(env_id, **overrides)
         policy = model
@@ -508,6 +554,7 @@ def _run_eval(args: argparse.Namespace) -> int:
             num_threads=args.threads,
             progress=lambda done: bar.update(done - bar.n),
             recorder=recorder,
+            **observation,
         )
     report.policy = label
     summary = report.summary()

@@ -10,6 +10,7 @@ from gymnasium.utils import EzPickle
 
 from . import _common, _native
 from .errors import InvalidArgumentError
+from .pixels import DEFAULT_IMAGE_SIZE, observation_spec
 from .rendering import DEFAULT_HEIGHT, DEFAULT_WIDTH, RENDER_MODES, FrameSource
 from .robot import Robot
 
@@ -52,6 +53,18 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     force-limited drive) and the cube stay fully dynamic and the grasp is still held by
     friction alone. A motion that would take a kinematic arm link into the floor or the
     platform is refused (the arm stops; ``info["arm_blocked"]``).
+
+    ## Image observations
+    ``obs_mode="rgb"`` adds camera images to the observation dict and drops the state vector
+    (``observation``); ``"state+rgb"`` keeps both; ``"state"`` (default) has no images. Each
+    camera gives a uint8 ``(height, width, 3)`` image drawn on the CPU at ``image_size`` (an
+    int, default 84, or ``(height, width)``), under its key in ``cameras`` (default
+    ``{"rgb": panda_rapier.pixels.DEFAULT_CAMERA}``; camera options as for ``camera`` below,
+    plus ``show_goal``, default False). ``achieved_goal`` and ``desired_goal`` stay, for
+    ``compute_reward`` and hindsight relabelling (``achieved_goal`` is the object's position:
+    drop it, e.g. with ``gymnasium.wrappers.FilterObservation``, for a policy that must see the
+    object only in pictures). Images are bit-identical for the same state. SB3's
+    ``MultiInputPolicy`` takes them as they are (it transposes images for its CNN).
 
     ## Action Space
     ``Box(-1, 1, (4,), float32)`` with ``control_mode="ee"`` (default): TCP displacement x, y, z
@@ -125,20 +138,30 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
         width: int = DEFAULT_WIDTH,
         height: int = DEFAULT_HEIGHT,
         camera: dict[str, Any] | None = None,
+        obs_mode: str = "state",
+        image_size: int | tuple[int, int] = DEFAULT_IMAGE_SIZE,
+        cameras: dict[str, dict[str, Any]] | None = None,
         **config: Any,
     ) -> None:
         EzPickle.__init__(
-            self, render_mode=render_mode, width=width, height=height, camera=camera, **config
+            self,
+            render_mode=render_mode,
+            width=width,
+            height=height,
+            camera=camera,
+            obs_mode=obs_mode,
+            image_size=image_size,
+            cameras=cameras,
+            **config,
         )
         self._frames: FrameSource | None = None
         # gym.make keeps time with a TimeLimit wrapper; the env counts only when asked to.
         config.setdefault("max_episode_steps", None)
         self._bind_native(_native.PandaEnv(_common.config_json(config), 0))
+        self._obs = observation_spec(self._schema, obs_mode, image_size, cameras)
+        self._cameras = _native.Cameras(self._obs.cameras_json) if self._obs.has_images else None
         # gymnasium types a Dict space's elements as dict[str, Space], not the observations.
-        self.observation_space = cast(
-            "gym.spaces.Space[dict[str, np.ndarray]]",
-            _common.observation_space(self._schema),
-        )
+        self.observation_space = cast("gym.spaces.Space[dict[str, np.ndarray]]", self._obs.space())
         self.action_space = _common.action_space(self._native.action_dim)
         self._action_shape = (int(self._native.action_dim),)
         self.metadata = {**type(self).metadata, "render_fps": round(1.0 / self._native.dt)}
@@ -166,7 +189,7 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
         flat, info = self._native.reset(native_seed, options_json)
         if self.render_mode == "human":
             self.render()
-        return _common.split_observation(flat, self._schema), info
+        return self._observation(flat), info
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         flat, reward, terminated, truncated, info = self._native.step(
@@ -174,7 +197,11 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
         )
         if self.render_mode == "human":
             self.render()
-        return _common.split_observation(flat, self._schema), reward, terminated, truncated, info
+        return self._observation(flat), reward, terminated, truncated, info
+
+    def _observation(self, flat: np.ndarray) -> dict[str, np.ndarray]:
+        images = None if self._cameras is None else self._cameras.observe(self._native)
+        return self._obs.assemble(flat, images)
 
     def snapshot(self) -> _native.EnvSnapshot:
         """An opaque copy of the whole state (physics, random stream, goal, clock)."""

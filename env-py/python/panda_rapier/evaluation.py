@@ -30,6 +30,7 @@ import numpy as np
 
 from . import _common, _native
 from .errors import ConfigError, InvalidArgumentError
+from .pixels import DEFAULT_IMAGE_SIZE, ObservationSpec, observation_spec
 from .policy import ScriptedPolicy
 
 if TYPE_CHECKING:
@@ -239,22 +240,27 @@ Actor = Callable[[np.ndarray], np.ndarray]
 StepHook = Callable[[np.ndarray, np.ndarray, list[int | None]], None]
 
 
-def _actor(policy: Any) -> tuple[Actor, str]:
-    """A function from flat observation rows to action rows, and a name for the policy."""
+def _actor(
+    policy: Any, spec: ObservationSpec
+) -> tuple[Callable[[np.ndarray, np.ndarray | None], np.ndarray], str]:
+    """A function from flat observation rows (and the image rows, with image observations) to
+    action rows, and a name for the policy."""
     if isinstance(policy, ScriptedPolicy):
         native = policy._native
-        return native.act, "scripted"
+        return (lambda flat, _images: native.act(flat)), "scripted"
     predict = getattr(policy, "predict", None)
     if not callable(predict):
         if callable(policy):  # already a function of flat observation rows
-            return policy, getattr(policy, "__name__", type(policy).__name__)
+            return (lambda flat, _images: policy(flat)), getattr(
+                policy, "__name__", type(policy).__name__
+            )
         raise InvalidArgumentError(
             f"policy must have an SB3-style predict(obs, deterministic=True) or be a function "
             f"of flat observation rows, got {type(policy).__name__}"
         )
 
-    def act(flat: np.ndarray) -> np.ndarray:
-        actions, _ = predict(_common.split_observation(flat), deterministic=True)
+    def act(flat: np.ndarray, images: np.ndarray | None) -> np.ndarray:
+        actions, _ = predict(spec.assemble(flat, images), deterministic=True)
         return np.asarray(actions, dtype=np.float32).reshape(flat.shape[0], -1)
 
     return act, type(policy).__name__
@@ -271,6 +277,9 @@ def evaluate(
     progress: Callable[[int], object] | None = None,
     recorder: VideoRecorder | None = None,
     on_step: StepHook | None = None,
+    obs_mode: str = "state",
+    image_size: int | tuple[int, int] = DEFAULT_IMAGE_SIZE,
+    cameras: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> EvaluationReport:
     """Runs ``episodes`` seeded episodes of the environment ``config`` (its
     ``max_episode_steps`` must be set) with ``policy`` (a :class:`ScriptedPolicy`, anything
@@ -279,7 +288,9 @@ def evaluate(
     the module docstring); ``on_step`` (a :data:`StepHook`) sees every step before it is taken;
     ``progress`` is called with the number of finished episodes after every step that ends
     some. ``recorder`` (a :class:`~panda_rapier.video.VideoRecorder`) gets every frame of the
-    episodes environment 0 runs: the first state and one frame per step."""
+    episodes environment 0 runs: the first state and one frame per step. ``obs_mode``,
+    ``image_size`` and ``cameras`` (as for :class:`~panda_rapier.PandaEnv`) give an SB3-style
+    policy the image observations it was trained on."""
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
         raise InvalidArgumentError(f"episodes must be an int >= 1, got {episodes!r}")
     if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
@@ -294,10 +305,14 @@ def evaluate(
     config = dict(config)
     if config.get("max_episode_steps", 0) is None:
         raise ConfigError("evaluation needs a time limit: max_episode_steps must not be None")
-    act, name = _actor(policy)
+    config_json = _common.config_json(config)
+    spec = observation_spec(_common.Schema.of(config_json), obs_mode, image_size, cameras)
+    act, name = _actor(policy, spec)
     evaluation = _native.Evaluation(
-        _common.config_json(config), episodes, min(num_envs, episodes), num_threads, seed
+        config_json, episodes, min(num_envs, episodes), num_threads, seed
     )
+    if spec.has_images:
+        evaluation.set_cameras(spec.cameras_json)
     full_config = json.loads(evaluation.config_json())
 
     started = time.perf_counter()
@@ -305,7 +320,8 @@ def evaluate(
         recorder.capture(evaluation)
     while not evaluation.done:
         observations = evaluation.observations()
-        actions = np.ascontiguousarray(act(observations), dtype=np.float32)
+        images = evaluation.images() if spec.has_images else None
+        actions = np.ascontiguousarray(act(observations, images), dtype=np.float32)
         running = evaluation.running()
         if on_step is not None:
             on_step(observations, actions, running)

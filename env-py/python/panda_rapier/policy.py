@@ -117,7 +117,13 @@ class ScriptedPolicy:
         if isinstance(observation, Mapping):
             missing = [key for key in _OBSERVATION_KEYS if key not in observation]
             if missing:
-                raise InvalidArgumentError(f"observation dict lacks the keys {missing}")
+                hint = (
+                    " (the scripted policy reads the state: with image observations, make the "
+                    "environment with obs_mode='state+rgb')"
+                    if "observation" in missing
+                    else ""
+                )
+                raise InvalidArgumentError(f"observation dict lacks the keys {missing}{hint}")
             parts = [_real32(observation[key], key) for key in _OBSERVATION_KEYS]
             single = parts[0].ndim == 1
             try:

@@ -28,6 +28,7 @@ except ImportError as error:  # pragma: no cover - exercised only without the ex
 
 from . import _common, _native
 from .errors import ConfigError, InvalidArgumentError
+from .pixels import DEFAULT_IMAGE_SIZE, observation_spec
 from .registration import env_config
 from .rendering import (
     DEFAULT_HEIGHT,
@@ -78,6 +79,10 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
     ``render()`` environment 0 (or the first ``render_envs`` tiled), so SB3's
     ``VecVideoRecorder`` works; ``"human"`` shows the same in a window. ``width``, ``height``
     and ``camera`` as for :class:`~panda_rapier.PandaEnv`.
+
+    ``obs_mode``, ``image_size`` and ``cameras`` as for :class:`~panda_rapier.PandaEnv`: image
+    observations for ``MultiInputPolicy`` (SB3 transposes them for its CNN), drawn by the
+    native threads, with the images of ``terminal_observation`` drawn before the reset.
     """
 
     def __init__(
@@ -91,6 +96,9 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
         height: int = DEFAULT_HEIGHT,
         camera: dict[str, Any] | None = None,
         render_envs: int = 1,
+        obs_mode: str = "state",
+        image_size: int | tuple[int, int] = DEFAULT_IMAGE_SIZE,
+        cameras: dict[str, dict[str, Any]] | None = None,
         **config: Any,
     ) -> None:
         self._frames: FrameSource | None = None
@@ -106,11 +114,14 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
                 "same_step",
             )
         )
+        self._obs = observation_spec(self._schema, obs_mode, image_size, cameras)
+        if self._obs.has_images:
+            self._native.set_cameras(self._obs.cameras_json)
         self.spec = spec
         self._sub_envs = [_SubEnv(self, render_mode) for _ in range(int(num_envs))]
         super().__init__(
             int(num_envs),
-            _common.observation_space(self._schema),
+            self._obs.space(),
             _common.action_space(self._native.action_dim),
         )
         self._actions: np.ndarray | None = None
@@ -135,7 +146,7 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
         self.reset_infos = self._native.info_rows("step")
         self._episode_returns[:] = 0.0
         self._episode_lengths[:] = 0
-        return _common.split_observation(flat, self._schema)
+        return self._observation(flat)
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = _common.as_actions(actions, self._actions_shape, "actions")
@@ -152,12 +163,12 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
         self._episode_returns += rewards
         self._episode_lengths += 1
         if dones.any():
-            finals = _common.split_observation(self._native.final_observations(), self._schema)
+            finals = self._observation(self._native.final_observations(), "final")
             reset_infos = self._native.info_rows("reset")
             elapsed = round(time.time() - self._start_time, 6)
             for i in np.flatnonzero(dones):
                 info = infos[i]
-                info["terminal_observation"] = {key: value[i] for key, value in finals.items()}
+                info["terminal_observation"] = self._obs.row(finals, i)
                 info["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
                 info["episode"] = {
                     "r": float(self._episode_returns[i]),
@@ -167,7 +178,11 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
                 self.reset_infos[i] = reset_infos[i]
             self._episode_returns[dones] = 0.0
             self._episode_lengths[dones] = 0
-        return _common.split_observation(flat, self._schema), rewards, dones, infos
+        return self._observation(flat), rewards, dones, infos
+
+    def _observation(self, flat: np.ndarray, which: str = "current") -> dict[str, np.ndarray]:
+        images = self._native.images(which) if self._obs.has_images else None
+        return self._obs.assemble(flat, images)
 
     def close(self) -> None:
         if self._frames is not None:
@@ -239,11 +254,15 @@ def make_vec_env(
     height: int = DEFAULT_HEIGHT,
     camera: dict[str, Any] | None = None,
     render_envs: int = 1,
+    obs_mode: str = "state",
+    image_size: int | tuple[int, int] = DEFAULT_IMAGE_SIZE,
+    cameras: dict[str, dict[str, Any]] | None = None,
     **config: Any,
 ) -> PandaVecEnv:
     """A :class:`PandaVecEnv` for a registered id (``panda_rapier.ENV_IDS``), with the
     id's options (and its time limit, 70 steps) overridden by ``config``; ``render_mode``,
-    ``width``, ``height``, ``camera`` and ``render_envs`` pass through to it.
+    ``width``, ``height``, ``camera``, ``render_envs``, ``obs_mode``, ``image_size`` and
+    ``cameras`` pass through to it.
 
     With ``seed``, environment ``i``'s first episode is seeded with ``seed + i`` (as
     stable-baselines3's own ``make_vec_env``); the same seed gives the same rollouts.
@@ -258,6 +277,9 @@ def make_vec_env(
         height=height,
         camera=camera,
         render_envs=render_envs,
+        obs_mode=obs_mode,
+        image_size=image_size,
+        cameras=cameras,
         **options,
     )
     if seed is not None:

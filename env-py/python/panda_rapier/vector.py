@@ -12,6 +12,7 @@ from gymnasium.vector.utils import batch_space
 
 from . import _common, _native
 from .errors import ConfigError, InvalidArgumentError
+from .pixels import DEFAULT_IMAGE_SIZE, observation_spec
 from .rendering import (
     DEFAULT_HEIGHT,
     DEFAULT_WIDTH,
@@ -55,6 +56,10 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
     info in ``info["final_info"]``) or ``disabled`` (reset ended environments with
     ``reset(options={"reset_mask": mask})``). Infos are dicts of arrays with ``_key`` masks.
 
+    ``obs_mode``, ``image_size`` and ``cameras`` as for :class:`~panda_rapier.PandaEnv`: the
+    images are drawn by the pool's threads right after each step (and before a same-step
+    reset, for ``final_obs``), batched as ``(num_envs, height, width, 3)`` uint8 arrays.
+
     ``render()`` draws environment 0, or with ``render_envs=k`` the first ``k`` environments
     tiled in a near-square grid; ``render_mode``, ``width``, ``height`` and ``camera`` as for
     :class:`~panda_rapier.PandaEnv` (in ``human`` mode the window is updated by
@@ -72,6 +77,9 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
         height: int = DEFAULT_HEIGHT,
         camera: dict[str, Any] | None = None,
         render_envs: int = 1,
+        obs_mode: str = "state",
+        image_size: int | tuple[int, int] = DEFAULT_IMAGE_SIZE,
+        cameras: dict[str, dict[str, Any]] | None = None,
         **config: Any,
     ) -> None:
         self._frames: FrameSource | None = None
@@ -101,7 +109,10 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
             "render_modes": list(RENDER_MODES),
             "render_fps": round(1.0 / self._native.dt),
         }
-        self.single_observation_space = _common.observation_space(self._schema)
+        self._obs = observation_spec(self._schema, obs_mode, image_size, cameras)
+        if self._obs.has_images:
+            self._native.set_cameras(self._obs.cameras_json)
+        self.single_observation_space = self._obs.space()
         self.single_action_space = _common.action_space(self._native.action_dim)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -151,9 +162,7 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
                 )
             mask = np.ascontiguousarray(mask)
         flat = self._native.reset(seeds, mask)
-        return _common.split_observation(flat, self._schema), self._with_masks(
-            self._native.infos("step")
-        )
+        return self._observation(flat), self._with_masks(self._native.infos("step"))
 
     def step(
         self, actions: Any
@@ -167,7 +176,7 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
             if ended.any():
                 infos = self._same_step_infos(infos, ended)
         return (
-            _common.split_observation(flat, self._schema),
+            self._observation(flat),
             rewards,
             terminated,
             truncated,
@@ -184,9 +193,9 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
             key: np.where(ended, reset_infos[key], column) for key, column in step_infos.items()
         }
         final_obs = np.full(self.num_envs, None, dtype=object)
-        finals = _common.split_observation(self._native.final_observations(), self._schema)
+        finals = self._observation(self._native.final_observations(), "final")
         for i in np.flatnonzero(ended):
-            final_obs[i] = {key: value[i] for key, value in finals.items()}
+            final_obs[i] = self._obs.row(finals, i)
         final_info: dict[str, Any] = {}
         for key, column in step_infos.items():
             final_info[key] = column
@@ -196,6 +205,10 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
         infos["final_info"] = final_info
         infos["_final_info"] = ended
         return infos
+
+    def _observation(self, flat: np.ndarray, which: str = "current") -> dict[str, np.ndarray]:
+        images = self._native.images(which) if self._obs.has_images else None
+        return self._obs.assemble(flat, images)
 
     def _with_masks(self, infos: dict[str, Any]) -> dict[str, Any]:
         for key in [k for k in infos if not k.startswith("_")]:

@@ -1,0 +1,180 @@
+"""Image observations (``obs_mode="rgb"`` / ``"state+rgb"``): camera images from the CPU
+renderer in the observation dict, for the single, vector and stable-baselines3 environments.
+
+Every environment class reads its observation layout from one :class:`ObservationSpec`: the
+state keys the task's schema gives, plus one uint8 ``(height, width, 3)`` image per camera.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from . import _common, _native
+from .errors import ConfigError
+
+#: The observation modes: the state vector (default), camera images, or both.
+OBS_MODES = ("state", "rgb", "state+rgb")
+
+#: Default image size (pixels, square), a common size for pixel-based RL (Atari's 84x84).
+DEFAULT_IMAGE_SIZE = 84
+
+#: The default observation camera: in front of the robot, looking down at the pick region and
+#: the platform, with the gripper in the picture up to about 0.4 m above the floor.
+DEFAULT_CAMERA: dict[str, Any] = {
+    "target": [0.45, 0.05, 0.22],
+    "distance": 1.35,
+    "azimuth": 25.0,
+    "elevation": 35.0,
+    "fov": 45.0,
+}
+
+#: A second camera, from the robot's left side (pass both in ``cameras`` for two views).
+SIDE_CAMERA: dict[str, Any] = {
+    "target": [0.42, 0.05, 0.18],
+    "distance": 1.2,
+    "azimuth": 100.0,
+    "elevation": 30.0,
+    "fov": 48.0,
+}
+
+#: The default ``cameras``: one camera whose image is the ``rgb`` entry.
+DEFAULT_CAMERAS: dict[str, dict[str, Any]] = {"rgb": DEFAULT_CAMERA}
+
+
+@dataclass(frozen=True)
+class ObservationSpec:
+    """What an environment's observation dict holds: the state keys (a subset of
+    ``achieved_goal``, ``desired_goal``, ``observation``) and one image per camera."""
+
+    mode: str
+    schema: _common.Schema
+    #: Image keys, in the order of the native image bytes.
+    image_keys: tuple[str, ...] = ()
+    #: ``(height, width, 3)`` of each image.
+    image_shapes: tuple[tuple[int, int, int], ...] = ()
+    #: The cameras as the native side takes them (``"[]"`` for none).
+    cameras_json: str = "[]"
+
+    @property
+    def state_keys(self) -> tuple[str, ...]:
+        """The state entries of the dict."""
+        if self.mode == "rgb":
+            return ("achieved_goal", "desired_goal")
+        return _common.DICT_KEYS
+
+    @property
+    def has_images(self) -> bool:
+        """Whether observations carry images."""
+        return bool(self.image_keys)
+
+    def space(self) -> spaces.Dict:
+        """The observation space of one environment."""
+        state = _common.observation_space(self.schema)
+        entries: dict[str, spaces.Space[Any]] = {key: state[key] for key in self.state_keys}
+        for key, shape in zip(self.image_keys, self.image_shapes, strict=True):
+            entries[key] = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
+        return spaces.Dict(entries)
+
+    def assemble(self, flat: np.ndarray, images: np.ndarray | None) -> dict[str, np.ndarray]:
+        """The observation dict from the flat state (``(d,)`` or ``(n, d)``) and the native
+        image bytes (``(bytes,)`` or ``(n, bytes)``; ``None`` without cameras)."""
+        parts = _common.split_observation(flat, self.schema)
+        obs = {key: parts[key] for key in self.state_keys}
+        if images is not None:
+            lead = images.shape[:-1]
+            start = 0
+            for key, shape in zip(self.image_keys, self.image_shapes, strict=True):
+                size = shape[0] * shape[1] * shape[2]
+                obs[key] = images[..., start : start + size].reshape(*lead, *shape)
+                start += size
+        return obs
+
+    def row(self, obs: Mapping[str, np.ndarray], i: int | np.integer) -> dict[str, np.ndarray]:
+        """Environment ``i``'s entries of a batched observation dict."""
+        return {key: value[i] for key, value in obs.items()}
+
+
+def _image_size(image_size: Any) -> tuple[int, int]:
+    """``image_size``: an int (square) or ``(height, width)``, in pixels."""
+    values = (
+        [image_size] * 2
+        if isinstance(image_size, int | np.integer) and not isinstance(image_size, bool)
+        else image_size
+    )
+    if (
+        not isinstance(values, list | tuple)
+        or len(values) != 2
+        or any(isinstance(v, bool) or not isinstance(v, int | np.integer) for v in values)
+        or any(not 1 <= int(v) <= 4096 for v in values)
+    ):
+        raise ConfigError(
+            f"image_size must be an int or (height, width) of ints in [1, 4096] pixels, got "
+            f"{image_size!r}"
+        )
+    return int(values[0]), int(values[1])
+
+
+def observation_spec(
+    schema: _common.Schema,
+    obs_mode: Any = "state",
+    image_size: Any = DEFAULT_IMAGE_SIZE,
+    cameras: Any = None,
+) -> ObservationSpec:
+    """The observation layout for ``obs_mode`` with images of ``image_size`` from ``cameras``
+    (a dict from observation key to camera options: ``target``, ``distance``, ``azimuth``,
+    ``elevation`` or ``eye``, ``fov``, as for rendering, and ``show_goal``, default False: the
+    goal marker is left out of observation images so that a relabelled goal never contradicts
+    the picture). Bad values raise :class:`~panda_rapier.ConfigError`."""
+    if obs_mode not in OBS_MODES:
+        raise ConfigError(f"obs_mode must be one of {OBS_MODES}, got {obs_mode!r}")
+    if obs_mode == "state":
+        if cameras is not None:
+            raise ConfigError(
+                "cameras sets the observation cameras of obs_mode 'rgb' or "
+                "'state+rgb'; for render() frames, use camera"
+            )
+        return ObservationSpec(mode="state", schema=schema)
+    height, width = _image_size(image_size)
+    if cameras is None:
+        cameras = DEFAULT_CAMERAS
+    if not isinstance(cameras, Mapping) or not cameras:
+        raise ConfigError(
+            f"cameras must be a non-empty dict from observation key to camera options, got "
+            f"{cameras!r}"
+        )
+    entries = []
+    for key, options in cameras.items():
+        if not isinstance(key, str) or key in _common.DICT_KEYS or not key:
+            raise ConfigError(
+                f"camera keys must be non-empty strings other than {_common.DICT_KEYS}, got {key!r}"
+            )
+        if not isinstance(options, Mapping):
+            raise ConfigError(f"cameras[{key!r}] must be a dict of camera options, got {options!r}")
+        camera = dict(options)
+        show_goal = camera.pop("show_goal", False)
+        if not isinstance(show_goal, bool):
+            raise ConfigError(f"cameras[{key!r}]['show_goal'] must be a bool, got {show_goal!r}")
+        render = {"width": width, "height": height, "camera": camera, "show_goal": show_goal}
+        entries.append({"key": key, "render": render})
+    try:
+        cameras_json = json.dumps(
+            entries,
+            allow_nan=False,
+            default=lambda v: v.tolist() if isinstance(v, np.ndarray | np.generic) else str(v),
+        )
+    except ValueError as error:
+        raise ConfigError(f"camera options must be finite numbers: {error}") from error
+    native = _native.Cameras(cameras_json)  # validates every camera
+    return ObservationSpec(
+        mode=str(obs_mode),
+        schema=schema,
+        image_keys=tuple(native.keys),
+        image_shapes=tuple(tuple(shape) for shape in native.shapes),  # type: ignore[misc]
+        cameras_json=cameras_json,
+    )

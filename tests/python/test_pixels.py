@@ -1,0 +1,260 @@
+"""Image observations: ``obs_mode="rgb"`` / ``"state+rgb"`` on the single, vector and
+stable-baselines3 environments, their determinism, final observations, bad options, the
+benchmark, evaluation of a pixel policy and a pixel PPO smoke run."""
+
+from __future__ import annotations
+
+import pickle
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import panda_rapier
+from panda_rapier import PandaVectorEnv
+from panda_rapier.errors import ConfigError, InvalidArgumentError
+from panda_rapier.pixels import DEFAULT_IMAGE_SIZE, SIDE_CAMERA
+from panda_rapier.registration import env_config
+
+ENV_ID = "panda_rapier/PickAndPlace-v0"
+TWO_CAMERAS = {"front": panda_rapier.pixels.DEFAULT_CAMERA, "side": SIDE_CAMERA}
+
+
+def _keys(obs: dict[str, Any]) -> set[str]:
+    return set(obs)
+
+
+@pytest.mark.parametrize(
+    ("obs_mode", "keys"),
+    [
+        ("state", {"achieved_goal", "desired_goal", "observation"}),
+        ("rgb", {"achieved_goal", "desired_goal", "rgb"}),
+        ("state+rgb", {"achieved_goal", "desired_goal", "observation", "rgb"}),
+    ],
+)
+def test_obs_modes_give_their_keys_and_pass_the_checker(obs_mode: str, keys: set[str]) -> None:
+    env = gym.make(ENV_ID, obs_mode=obs_mode)
+    obs, _ = env.reset(seed=0)
+    assert _keys(obs) == keys == set(env.observation_space.spaces)
+    assert obs in env.observation_space
+    if obs_mode != "state":
+        image = obs["rgb"]
+        assert image.shape == (DEFAULT_IMAGE_SIZE, DEFAULT_IMAGE_SIZE, 3)
+        assert image.dtype == np.uint8
+        assert len(np.unique(image.reshape(-1, 3), axis=0)) > 20  # a scene, not a blank
+    check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ["panda_rapier/Reach-v0", "panda_rapier/StackJoints-v0"])
+def test_every_task_has_image_observations(env_id: str) -> None:
+    env = gym.make(env_id, obs_mode="rgb", image_size=(48, 64), cameras=TWO_CAMERAS)
+    obs, _ = env.reset(seed=1)
+    assert obs["front"].shape == obs["side"].shape == (48, 64, 3)
+    assert not np.array_equal(obs["front"], obs["side"])
+    obs, *_ = env.step(env.action_space.sample())
+    assert obs in env.observation_space
+    env.close()
+
+
+def _rollout_images(make: Any, steps: int = 12) -> list[bytes]:
+    env = make()
+    obs, _ = env.reset(seed=3)
+    rng = np.random.default_rng(0)
+    out = [obs["rgb"].tobytes()]
+    for _ in range(steps):
+        obs, *_ = env.step(rng.uniform(-1, 1, 4).astype(np.float32))
+        out.append(obs["rgb"].tobytes())
+    env.close()
+    return out
+
+
+def test_images_are_deterministic_and_follow_the_arm() -> None:
+    first = _rollout_images(lambda: gym.make(ENV_ID, obs_mode="rgb"))
+    second = _rollout_images(lambda: gym.make(ENV_ID, obs_mode="rgb"))
+    assert first == second
+    assert len(set(first)) > 8  # the arm moves in the pictures
+    # A pickled environment (EzPickle) keeps its image options.
+    clone = pickle.loads(pickle.dumps(gym.make(ENV_ID, obs_mode="rgb", image_size=32).unwrapped))
+    obs, _ = clone.reset(seed=0)
+    assert obs["rgb"].shape == (32, 32, 3)
+
+
+def test_vector_images_match_the_single_env_for_any_threads_and_batch() -> None:
+    config = env_config(ENV_ID)
+    single = gym.make(ENV_ID, obs_mode="state+rgb", image_size=40)
+    single_obs, _ = single.reset(seed=9)
+    actions = np.random.default_rng(1).uniform(-1, 1, (8, 5, 4)).astype(np.float32)
+    rows = {}
+    for num_envs, threads in [(5, 1), (5, 2)]:
+        envs = PandaVectorEnv(
+            num_envs, num_threads=threads, obs_mode="state+rgb", image_size=40, **config
+        )
+        obs, _ = envs.reset(seed=9)
+        assert obs["rgb"].shape == (num_envs, 40, 40, 3)
+        assert obs in envs.observation_space
+        np.testing.assert_array_equal(obs["rgb"][0], single_obs["rgb"])
+        seen = [obs["rgb"].copy()]
+        for step in actions:
+            obs, *_ = envs.step(step)
+            seen.append(obs["rgb"].copy())
+        rows[threads] = np.stack(seen)
+        envs.close()
+    np.testing.assert_array_equal(rows[1], rows[2])
+    # Environment 0 of the vector env follows the single env step for step.
+    for t, step in enumerate(actions):
+        single_obs, *_ = single.step(step[0])
+        np.testing.assert_array_equal(rows[1][t + 1, 0], single_obs["rgb"])
+    single.close()
+
+
+def _final_image(seed: int, steps: int) -> np.ndarray:
+    env = gym.make(ENV_ID, obs_mode="rgb", image_size=32, max_episode_steps=steps)
+    obs, _ = env.reset(seed=seed)
+    for _ in range(steps):
+        obs, *_ = env.step(np.full(4, 0.5, dtype=np.float32))
+    env.close()
+    return obs["rgb"]
+
+
+def test_final_observations_carry_the_last_image_before_the_reset() -> None:
+    steps = 4
+    expected = _final_image(0, steps)
+    action = np.full((2, 4), 0.5, dtype=np.float32)
+    envs = PandaVectorEnv(
+        2,
+        autoreset_mode="same_step",
+        obs_mode="rgb",
+        image_size=32,
+        **env_config(ENV_ID, max_episode_steps=steps),
+    )
+    envs.reset(seed=0)
+    for _ in range(steps):
+        obs, _, _, truncated, infos = envs.step(action)
+    assert truncated.all()
+    np.testing.assert_array_equal(infos["final_obs"][0]["rgb"], expected)
+    assert not np.array_equal(obs["rgb"][0], expected)  # already the next episode's first
+    envs.close()
+
+    from panda_rapier.sb3 import make_vec_env
+
+    venv = make_vec_env(
+        ENV_ID, n_envs=2, seed=0, obs_mode="rgb", image_size=32, max_episode_steps=steps
+    )
+    venv.reset()
+    for _ in range(steps):
+        obs, _, dones, sb3_infos = venv.step(action)
+    assert dones.all()
+    np.testing.assert_array_equal(sb3_infos[0]["terminal_observation"]["rgb"], expected)
+    assert obs["rgb"].shape == (2, 32, 32, 3)
+    venv.close()
+
+
+def test_the_goal_marker_is_left_out_unless_asked_for() -> None:
+    def image(show_goal: bool | None) -> np.ndarray:
+        camera = dict(panda_rapier.pixels.DEFAULT_CAMERA)
+        if show_goal is not None:
+            camera["show_goal"] = show_goal
+        env = gym.make(ENV_ID, obs_mode="rgb", cameras={"rgb": camera})
+        obs, _ = env.reset(seed=2, options={"goal": [0.45, 0.0, 0.3]})
+        env.close()
+        return obs["rgb"]
+
+    assert np.array_equal(image(None), image(False))
+    assert not np.array_equal(image(None), image(True))
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"obs_mode": "depth"},
+        {"obs_mode": "rgb", "image_size": 0},
+        {"obs_mode": "rgb", "image_size": (84,)},
+        {"obs_mode": "rgb", "image_size": True},
+        {"obs_mode": "rgb", "image_size": 5000},
+        {"obs_mode": "rgb", "cameras": {}},
+        {"obs_mode": "rgb", "cameras": {"observation": {}}},
+        {"obs_mode": "rgb", "cameras": {"rgb": {"fov": float("nan")}}},
+        {"obs_mode": "rgb", "cameras": {"rgb": {"zoom": 2}}},
+        {"obs_mode": "rgb", "cameras": {"rgb": {"show_goal": "yes"}}},
+        {"obs_mode": "rgb", "cameras": ["rgb"]},
+        {"cameras": {"rgb": {}}},  # cameras without images
+    ],
+)
+def test_bad_image_options_are_config_errors(kwargs: dict[str, Any]) -> None:
+    with pytest.raises(ConfigError):
+        gym.make(ENV_ID, **kwargs)
+    with pytest.raises(ConfigError):
+        PandaVectorEnv(2, **env_config(ENV_ID), **kwargs)
+
+
+def test_the_scripted_policy_needs_the_state() -> None:
+    env = gym.make(ENV_ID, obs_mode="rgb")
+    obs, _ = env.reset(seed=0)
+    policy = panda_rapier.ScriptedPolicy(env)
+    with pytest.raises(InvalidArgumentError, match="state\\+rgb"):
+        policy.predict(obs)
+    env.close()
+    env = gym.make(ENV_ID, obs_mode="state+rgb")
+    obs, _ = env.reset(seed=0)
+    action, _ = policy.predict(obs)
+    assert action.shape == (4,)
+    env.close()
+
+
+def test_bench_measures_image_observations() -> None:
+    from panda_rapier.bench import format_report, run_benchmark
+
+    report = run_benchmark(
+        num_envs=[2],
+        targets=["gym.make", "vector"],
+        policies=["random"],
+        rounds=1,
+        env_steps=20,
+        peers=False,
+        image_sizes=[64],
+    )
+    targets = {row["target"] for row in report["results"]}
+    assert targets == {"gym.make", "vector", "gym.make +rgb 64px", "vector +rgb 64px"}
+    assert all(row["env_steps_per_s"] > 0 for row in report["results"])
+    assert "vector +rgb 64px" in format_report(report)
+
+
+def test_pixel_ppo_trains_evaluates_and_reloads(tmp_path: Path) -> None:
+    """The pixel smoke run: PPO with SB3's CNN on camera images, the native VecEnv drawing
+    them; the saved model is evaluated through ``evaluate`` and ``panda-rapier eval``."""
+    torch = pytest.importorskip("torch")
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.torch_layers import NatureCNN
+
+    from panda_rapier.cli import main
+    from panda_rapier.evaluation import evaluate
+    from panda_rapier.sb3 import make_vec_env
+
+    torch.set_num_threads(1)
+    dense = "panda_rapier/PickAndPlaceDense-v0"
+    venv = make_vec_env(dense, n_envs=4, seed=0, num_threads=1, obs_mode="rgb", image_size=64)
+    model = PPO("MultiInputPolicy", venv, n_steps=32, batch_size=64, n_epochs=1, seed=0)
+    assert isinstance(model.policy.features_extractor.extractors["rgb"], NatureCNN)
+    before = [p.detach().clone() for p in model.policy.parameters()]
+    model.learn(256)
+    assert model.num_timesteps == 256
+    after = list(model.policy.parameters())
+    assert any(not torch.equal(a, b) for a, b in zip(before, after, strict=True))
+    path = tmp_path / "pixel_ppo.zip"
+    model.save(path)
+
+    def run() -> list[float]:
+        report = evaluate(
+            model, env_config(dense), 3, num_envs=2, first_seed=5, obs_mode="rgb", image_size=64
+        )
+        assert len(report.episodes) == 3
+        return [e.episode_return for e in report.episodes]
+
+    first = run()
+    assert first == run()  # evaluation of a pixel policy is reproducible
+    assert all(np.isfinite(first))
+    assert main(["eval", "--policy", str(path), "--episodes", "2", "--quiet"]) == 0
