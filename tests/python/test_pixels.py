@@ -258,3 +258,25 @@ def test_pixel_ppo_trains_evaluates_and_reloads(tmp_path: Path) -> None:
     assert first == run()  # evaluation of a pixel policy is reproducible
     assert all(np.isfinite(first))
     assert main(["eval", "--policy", str(path), "--episodes", "2", "--quiet"]) == 0
+
+
+def test_the_pixel_examples_run(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    png = tmp_path / "pixels.png"
+    subprocess.run(
+        [sys.executable, root / "examples/pixel_observations.py", "--out", png, "--size", "32",
+         "--steps", "0", "5"],
+        check=True, timeout=600,
+    )  # fmt: skip
+    assert png.read_bytes().startswith(b"\x89PNG")
+    result = subprocess.run(
+        [sys.executable, root / "examples/pixel_ppo.py", "--steps", "64", "--n-envs", "2",
+         "--image-size", "48", "--eval-episodes", "2", "--out", tmp_path / "run",
+         "--no-progress"],
+        check=True, timeout=600, capture_output=True, text=True,
+    )  # fmt: skip
+    assert "from 48px images" in result.stdout
+    assert (tmp_path / "run" / "model.zip").is_file()
