@@ -1,5 +1,5 @@
 //! Criterion bench of the CPU renderer: one 720x480 frame (and 320x240) of the pick-and-place
-//! scene mid-grasp, with shadows.
+//! scene mid-grasp, with shadows; and the observation sizes 128x128 and 84x84.
 //!
 //! `cargo bench --bench render` (throughput is reported as frames per second).
 
@@ -21,7 +21,7 @@ fn render(c: &mut Criterion) {
     }
     let mut group = c.benchmark_group("render");
     group.throughput(Throughput::Elements(1));
-    for (width, height) in [(720, 480), (320, 240)] {
+    for (width, height) in [(720, 480), (320, 240), (128, 128), (84, 84)] {
         let mut renderer = Renderer::new(RenderConfig {
             width,
             height,

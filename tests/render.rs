@@ -179,3 +179,30 @@ fn a_reset_is_drawn_before_any_step() {
         assert!((drawn - f64::from(*seen)).abs() < 1e-6);
     }
 }
+
+#[test]
+fn a_renderer_draws_each_scene_as_a_fresh_one_would() {
+    // The renderer caches each primitive's triangles: drawing another scene in between (more
+    // objects, no platform) must not change what it draws for the first.
+    let stack_config = EnvConfig {
+        task: panda_rapier::task::TaskKind::Stack,
+        ..EnvConfig::default()
+    };
+    let mut stack = PandaEnv::new(stack_config).unwrap();
+    stack.reset(Some(4), &ResetOptions::default()).unwrap();
+    let lift_config = EnvConfig {
+        task: panda_rapier::task::TaskKind::Lift,
+        ..EnvConfig::default()
+    };
+    let mut lift = PandaEnv::new(lift_config).unwrap();
+    lift.reset(Some(4), &ResetOptions::default()).unwrap();
+    let pick = env(4);
+    for (width, height) in [(84, 84), (320, 240)] {
+        let mut shared = renderer(width, height);
+        for scene in [&pick, &stack, &lift, &pick, &stack] {
+            let drawn = shared.render(scene).rgb().to_vec();
+            let fresh = renderer(width, height).render(scene).rgb().to_vec();
+            assert_eq!(drawn, fresh, "{width}x{height}");
+        }
+    }
+}

@@ -7,7 +7,7 @@ use panda_rapier_core::{
 use serde::{Deserialize, Serialize};
 
 use crate::camera::{Camera, CameraConfig, NEAR};
-use crate::mesh::{tessellate, Triangle};
+use crate::mesh::{tessellate_with, Detail, Triangle};
 use crate::raster::{Frame, ScreenVertex};
 
 /// Largest width or height accepted (pixels).
@@ -96,7 +96,13 @@ pub struct Renderer {
     frame: Frame,
     background: Vec<[u8; 3]>,
     primitives: Vec<VisualPrimitive>,
-    triangles: Vec<Triangle>,
+    /// How finely round shapes are split, from the picture's height.
+    detail: Detail,
+    /// The camera's focal length in pixels.
+    focal_px: f64,
+    /// Each primitive's shape and its triangles (in the shape's frame), by primitive index:
+    /// shapes do not change between frames, so they are tessellated once.
+    meshes: Vec<(VisualShape, Vec<Triangle>)>,
     casters: Vec<Triangle>,
 }
 
@@ -113,12 +119,14 @@ impl Renderer {
             .collect();
         Ok(Self {
             frame: Frame::new(config.width, config.height),
-            config,
             camera,
             background,
             primitives: Vec::new(),
-            triangles: Vec::new(),
+            detail: Detail::for_height(config.height),
+            focal_px: camera.focal_px(config.height),
+            meshes: Vec::new(),
             casters: Vec::new(),
+            config,
         })
     }
 
@@ -148,7 +156,7 @@ impl Renderer {
         let mut primitives = std::mem::take(&mut self.primitives);
         let mut shadow_planes = Vec::new();
         self.casters.clear();
-        for p in &primitives {
+        for (index, p) in primitives.iter().enumerate() {
             let color = match p.tag {
                 VisualTag::Floor => {
                     shadow_planes.push(p.pose.translation.z);
@@ -173,12 +181,13 @@ impl Renderer {
                 }
             };
             let casts = !matches!(p.tag, VisualTag::Platform);
-            self.draw_primitive(p, color, &light, casts);
+            self.draw_primitive(index, p, color, &light, casts);
         }
         let goal = if self.config.show_goal { goal } else { &[] };
-        for goal in goal
+        for (k, goal) in goal
             .chunks_exact(3)
             .filter(|g| g.iter().all(|x| x.is_finite()))
+            .enumerate()
         {
             let marker = VisualPrimitive {
                 shape: VisualShape::Sphere {
@@ -188,7 +197,7 @@ impl Renderer {
                 // Not drawn by tag: the colour is given below and the marker casts no shadow.
                 tag: VisualTag::Floor,
             };
-            self.draw_primitive(&marker, GOAL, &light, false);
+            self.draw_primitive(primitives.len() + k, &marker, GOAL, &light, false);
         }
         self.draw_shadows(&light, &shadow_planes);
         primitives.clear();
@@ -201,16 +210,28 @@ impl Renderer {
         &self.frame
     }
 
+    /// Draws primitive `index` (its triangles cached under that index; the goal markers
+    /// follow the scene's primitives).
     fn draw_primitive(
         &mut self,
+        index: usize,
         p: &VisualPrimitive,
         color: [u8; 3],
         light: &Vector3<f64>,
         casts: bool,
     ) {
-        self.triangles.clear();
-        tessellate(&p.shape, &mut self.triangles);
-        let triangles = std::mem::take(&mut self.triangles);
+        let slot = index;
+        if self.meshes.len() <= slot {
+            self.meshes
+                .resize_with(slot + 1, || (VisualShape::Plane, Vec::new()));
+        }
+        let (shape, triangles) = &mut self.meshes[slot];
+        if *shape != p.shape || triangles.is_empty() {
+            triangles.clear();
+            tessellate_with(&p.shape, self.detail, triangles);
+            shape.clone_from(&p.shape);
+        }
+        let triangles = std::mem::take(triangles);
         for t in &triangles {
             let world = t
                 .map(|v| p.pose * nalgebra::Point3::from(v))
@@ -221,7 +242,7 @@ impl Renderer {
             }
             self.draw_triangle(&world, &normal, color, light);
         }
-        self.triangles = triangles;
+        self.meshes[slot].1 = triangles;
     }
 
     fn draw_floor(&mut self, p: &VisualPrimitive, light: &Vector3<f64>) {
@@ -297,7 +318,7 @@ impl Renderer {
     }
 
     fn to_screen(&self, t: &Triangle) -> [ScreenVertex; 3] {
-        let f = self.camera.focal_px(self.config.height);
+        let f = self.focal_px;
         let (cx, cy) = (
             f64::from(self.config.width) / 2.0,
             f64::from(self.config.height) / 2.0,
