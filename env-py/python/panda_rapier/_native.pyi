@@ -7,6 +7,7 @@ import numpy.typing as npt
 
 __all__ = [
     "AssetError",
+    "Cameras",
     "ConfigError",
     "DisplayError",
     "EnvSnapshot",
