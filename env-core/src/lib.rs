@@ -21,6 +21,7 @@ pub mod kinematics;
 pub mod model;
 pub mod physics;
 pub mod robot;
+pub mod sensor;
 pub mod task;
 pub mod vector;
 
@@ -40,7 +41,8 @@ pub use task::{
     ControlMode, EnvConfig, EnvSnapshot, ObservationLayout, PandaEnv, ResetOptions, RewardType,
     StepInfo, Task, TaskKind, Transition,
 };
-pub use vector::{AutoresetMode, PandaVecEnv, Sensor};
+pub use sensor::Sensor;
+pub use vector::{AutoresetMode, PandaVecEnv};
 
 /// Re-exported so users can name the math types of the API without a second nalgebra.
 pub use nalgebra;

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from . import __version__
-from .errors import ConfigError, PandaRapierError
+from .errors import PandaRapierError
 from .registration import ENV_IDS, env_config
 
 DEFAULT_ENV_ID = "panda_rapier/PickAndPlace-v0"
@@ -453,42 +453,10 @@ def _model_control_mode(model_path: Path) -> str:
     return "joints" if shape == (8,) else "ee"
 
 
-def _model_observation(model_path: Path) -> dict[str, Any]:
-    """The image options (``obs_mode``, ``image_size``) a saved model was trained with, read off
-    its observation space: none for state observations. Images under keys other than the default
-    camera's ``rgb`` need their cameras, which only the Python API takes."""
-    import numpy as np
-    from gymnasium import spaces
-    from stable_baselines3.common.save_util import load_from_zip_file
-
-    data, _, _ = load_from_zip_file(model_path, load_data=True, device="cpu")
-    space = (data or {}).get("observation_space")
-    if not isinstance(space, spaces.Dict):
-        return {}
-    images = {
-        k: v for k, v in space.spaces.items() if isinstance(v, spaces.Box) and v.dtype == np.uint8
-    }
-    if not images:
-        return {}
-    if set(images) != {"rgb"}:
-        raise ConfigError(
-            f"{model_path} observes the cameras {sorted(images)}: evaluate it from Python with "
-            "panda_rapier.evaluation.evaluate(..., cameras=...)"
-        )
-    shape = images["rgb"].shape
-    assert shape is not None
-    # Saved as SB3's VecTransposeImage passed it on: channels first.
-    height, width = (shape[1], shape[2]) if shape[0] == 3 else (shape[0], shape[1])
-    return {
-        "obs_mode": "state+rgb" if "observation" in space.spaces else "rgb",
-        "image_size": (int(height), int(width)),
-    }
-
-
 def _run_eval(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from .evaluation import evaluate, load_sb3_model
+    from .evaluation import evaluate, load_sb3_model, model_observation
     from .policy import ScriptedPolicy
 
     overrides: dict[str, Any] = {}
@@ -520,7 +488,7 @@ def _run_eval(args: argparse.Namespace) -> int:
             overrides["control_mode"] = _model_control_mode(model_path)
         from .sb3 import make_vec_env
 
-        observation = _model_observation(model_path)
+        observation = model_observation(model_path)
         # The model is loaded with an environment of the evaluation's spaces: a mismatch is
         # reported by stable-baselines3, and hindsight replay buffers need one.
         model = load_sb3_model(

@@ -41,6 +41,7 @@ __all__ = [
     "EvaluationReport",
     "evaluate",
     "load_sb3_model",
+    "model_observation",
     "wilson_interval",
 ]
 
@@ -232,6 +233,38 @@ def load_sb3_model(path: str | Path, env: Any = None, algo: str | None = None) -
             f"{' and sb3-contrib' if algo == 'tqc' else ''}: pip install 'panda-rapier[train]'"
         ) from error
     return algorithm.load(path, env=env, device="cpu")
+
+
+def model_observation(model_path: str | Path) -> dict[str, Any]:
+    """The image options (``obs_mode``, ``image_size``) a saved model was trained with, read off
+    its observation space: none for state observations. Images under keys other than the default
+    camera's ``rgb`` need their cameras, which only the Python API takes."""
+    from gymnasium import spaces
+    from stable_baselines3.common.save_util import load_from_zip_file
+
+    model_path = Path(model_path)
+    data, _, _ = load_from_zip_file(model_path, load_data=True, device="cpu")
+    space = (data or {}).get("observation_space")
+    if not isinstance(space, spaces.Dict):
+        return {}
+    images = {
+        k: v for k, v in space.spaces.items() if isinstance(v, spaces.Box) and v.dtype == np.uint8
+    }
+    if not images:
+        return {}
+    if set(images) != {"rgb"}:
+        raise ConfigError(
+            f"{model_path} observes the cameras {sorted(images)}: evaluate it from Python with "
+            "panda_rapier.evaluation.evaluate(..., cameras=...)"
+        )
+    shape = images["rgb"].shape
+    assert shape is not None
+    # Saved as SB3's VecTransposeImage passed it on: channels first.
+    height, width = (shape[1], shape[2]) if shape[0] == 3 else (shape[0], shape[1])
+    return {
+        "obs_mode": "state+rgb" if "observation" in space.spaces else "rgb",
+        "image_size": (int(height), int(width)),
+    }
 
 
 Actor = Callable[[np.ndarray], np.ndarray]
