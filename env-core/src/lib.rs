@@ -37,11 +37,11 @@ pub use physics::{
 };
 pub use robot::panda::READY as PANDA_READY;
 pub use robot::{Controller, Gripper, Robot};
+pub use sensor::Sensor;
 pub use task::{
     ControlMode, EnvConfig, EnvSnapshot, ObservationLayout, PandaEnv, ResetOptions, RewardType,
     StepInfo, Task, TaskKind, Transition,
 };
-pub use sensor::Sensor;
 pub use vector::{AutoresetMode, PandaVecEnv};
 
 /// Re-exported so users can name the math types of the API without a second nalgebra.
