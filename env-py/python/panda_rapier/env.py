@@ -216,7 +216,8 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     save_state = snapshot
     restore_state = restore
 
-    def render(self) -> np.ndarray | None:
+    # Gymnasium < 1.3 (ray[rllib] pins 1.2.2) types Env.render with an unbound TypeVar.
+    def render(self) -> np.ndarray | None:  # type: ignore[override, unused-ignore]
         """The current state as an HxWx3 uint8 frame (``rgb_array``), or shown in the window
         (``human``, returns None). The same state always gives the same bytes."""
         if self.render_mode is None or self._frames is None:
