@@ -36,8 +36,11 @@ def test_readme_has_python_examples() -> None:
 
 @pytest.mark.parametrize("index", range(len(readme_python_blocks())))
 def test_readme_python_example_runs(index: int, tmp_path: Path) -> None:
+    block = readme_python_blocks()[index]
+    if "import ray" in block:
+        pytest.importorskip("ray", reason="the README's Ray examples need '.[rllib]'")
     script = tmp_path / f"readme_{index}.py"
-    script.write_text(readme_python_blocks()[index])
+    script.write_text(block)
     subprocess.run([sys.executable, script], cwd=tmp_path, check=True, timeout=600)
 
 

@@ -260,8 +260,10 @@ class _Recorder:
         num_threads: int | None,
         wall_offset: float = 0.0,
         say: Callable[[str], None] = print,
+        on_evaluation: Callable[[dict[str, Any]], None] | None = None,
     ) -> None:
         self.out = out
+        self.on_evaluation = on_evaluation
         self.config = dict(config)
         self.run = run
         self.episodes = episodes
@@ -321,6 +323,8 @@ class _Recorder:
             best.update(env_steps=line["env_steps"], wall_time_s=line["wall_time_s"])
             save_model(model, self.out / "best.zip", best)
         self.run["last_evaluation"] = line
+        if self.on_evaluation is not None:
+            self.on_evaluation(dict(line))
         return line
 
 
@@ -383,13 +387,17 @@ def train(
     progress: bool = True,
     command: list[str] | None = None,
     say: Callable[[str], None] = print,
+    on_evaluation: Callable[[dict[str, Any]], None] | None = None,
 ) -> dict[str, Any]:
     """Trains ``algo`` on ``env_id`` with its recipe and writes the run to ``out`` (see the
     module's documentation); returns the run record. ``timesteps`` and ``n_envs`` override
     the recipe's; ``env_kwargs`` are added to the recipe's environment options. ``init_from``
     (a model saved by this algorithm, with the same observation and action spaces) gives the
     network its starting weights, observation normaliser included: fine-tuning. The run record
-    keeps that model's own run record, so its training time can be added up."""
+    keeps that model's own run record, so its training time can be added up.
+    ``on_evaluation`` is called with each periodic evaluation's line of ``evaluations.jsonl``
+    (env steps, wall time, success and placed rate, mean return), after it is written and
+    ``best.zip`` is saved: :mod:`panda_rapier.tuning` reports them to Ray Tune."""
     import torch as th
 
     if env_id not in ENV_IDS:
@@ -445,7 +453,9 @@ def train(
                 "bc runs are short and are not resumed; their length is the recipe's "
                 "demo_episodes and dagger_rounds, not --timesteps"
             )
-        return _train_bc(run, recipe, config, out, n_envs, num_threads, eval_episodes, say)
+        return _train_bc(
+            run, recipe, config, out, n_envs, num_threads, eval_episodes, say, on_evaluation
+        )
 
     from .sb3 import make_vec_env
 
@@ -490,7 +500,14 @@ def train(
             _load_weights(model, algorithm, Path(init_from))
             say(f"starting from the weights of {init_from}")
     recorder = _Recorder(
-        out, config, run, eval_episodes, num_threads, float(state["wall_time_s"]), say
+        out,
+        config,
+        run,
+        eval_episodes,
+        num_threads,
+        float(state["wall_time_s"]),
+        say,
+        on_evaluation,
     )
     (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
     callbacks = [
@@ -551,6 +568,7 @@ def _train_bc(
     num_threads: int | None,
     eval_episodes: int,
     say: Callable[[str], None],
+    on_evaluation: Callable[[dict[str, Any]], None] | None = None,
 ) -> dict[str, Any]:
     """Behaviour cloning and DAgger from the scripted expert (see :mod:`.imitation`)."""
     from stable_baselines3 import PPO
@@ -569,7 +587,7 @@ def _train_bc(
     from stable_baselines3.common.logger import configure
 
     logger = configure(str(out / "tensorboard" / "bc_1"), ["tensorboard"])
-    recorder = _Recorder(out, config, run, eval_episodes, num_threads, 0.0, say)
+    recorder = _Recorder(out, config, run, eval_episodes, num_threads, 0.0, say, on_evaluation)
     (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
     env_steps = 0
     bars: dict[str, Any] = {}

@@ -1,0 +1,365 @@
+"""RLlib (Ray's new API stack) on the native vector environment: configuration builders.
+
+Needs the ``rllib`` extra (``pip install "panda-rapier[rllib]"``, Ray 2.60)::
+
+    import ray
+    from panda_rapier.rllib import ppo_config
+
+    ray.init()  # on a cluster: ray.init(address="auto")
+    algo = ppo_config("panda_rapier/PickAndPlaceDense-v0", num_env_runners=4).build_algo()
+    for _ in range(100):
+        result = algo.train()
+    algo.stop()
+
+:func:`ppo_config`, :func:`sac_config` and :func:`tqc_config` return ordinary RLlib
+``AlgorithmConfig`` objects, ready to ``build_algo()`` or to hand to ``ray.tune.Tuner``, and to
+change further with RLlib's own methods. Each sets the same environment side (see
+:func:`configure_env_runners`):
+
+- every EnvRunner builds one :class:`~panda_rapier.PandaVectorEnv` with
+  ``gym.make_vec(..., vectorization_mode="vector_entry_point")``: ``num_envs_per_env_runner``
+  environments stepped in Rust on ``num_threads`` = the runner's CPUs
+  (``num_cpus_per_env_runner``), not one Python env object per environment;
+- Gymnasium's ``next_step`` autoreset, which RLlib's EnvRunner assumes (it treats the
+  observation after an episode's last step as the next episode's first);
+- the goal-dict observations flattened by RLlib's ``FlattenObservations`` env-to-module
+  connector (RLlib's default encoders refuse ``Dict`` spaces), in the dict's key order:
+  ``achieved_goal``, ``desired_goal``, ``observation``, as the native flat layout;
+- seeds: see :func:`runner_seed`;
+- :class:`EpisodeOutcomes` adds ``success_rate`` and ``placed_rate`` to the EnvRunners'
+  metrics (``result["env_runners"]``).
+
+RLlib has no hindsight experience replay, so :func:`sac_config` and :func:`tqc_config` take
+the dense-reward ids only; TQC with HER on the sparse ids is stable-baselines3's recipe
+(``panda-rapier train --algo tqc``, swept on Ray by :mod:`panda_rapier.tuning`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+from gymnasium.vector import AutoresetMode
+
+try:
+    from ray.rllib.algorithms.ppo import PPOConfig
+    from ray.rllib.algorithms.sac import SACConfig
+    from ray.rllib.algorithms.tqc import TQCConfig
+    from ray.rllib.callbacks.callbacks import RLlibCallback
+    from ray.rllib.connectors.env_to_module import FlattenObservations
+except ImportError as error:  # pragma: no cover - exercised only without the extra
+    raise ImportError(
+        "panda_rapier.rllib needs Ray RLlib: pip install 'panda-rapier[rllib]'"
+    ) from error
+
+from .errors import ConfigError, InvalidArgumentError
+from .registration import ENV_IDS, env_config
+from .vector import PandaVectorEnv, _autoreset_mode
+
+if TYPE_CHECKING:
+    from ray.rllib.algorithms.algorithm_config import AlgorithmConfig
+
+__all__ = [
+    "MAX_RUN_SEED",
+    "OUTCOME_WINDOW",
+    "RLLIB_FIRST_SEED",
+    "RLLIB_SEED_STRIDE",
+    "EpisodeOutcomes",
+    "configure_env_runners",
+    "flatten_observations",
+    "ppo_config",
+    "rllib_seed",
+    "runner_seed",
+    "sac_config",
+    "tqc_config",
+]
+
+#: RLlib's seed (``config.seed``) of run seed 0. Runs seeds ``s`` use
+#: ``RLLIB_FIRST_SEED + RLLIB_SEED_STRIDE * s``: from 2e9 to 3e9, apart from the final test
+#: seeds (0 onwards), the validation seeds (5e8 onwards), ``panda-rapier train``'s training
+#: seeds (1e9 to 2e9) and the Minari datasets' (3e9 onwards).
+RLLIB_FIRST_SEED = 2_000_000_000
+#: Distance between the RLlib seeds of consecutive run seeds: room for up to a million
+#: training EnvRunners, and RLlib's evaluation runners' ``+ 1_000_000``, without reaching the
+#: next run seed's.
+RLLIB_SEED_STRIDE = 2_000_000
+#: Run seeds are ``0 <= seed < MAX_RUN_SEED`` (the range ends at 3e9; RLlib also seeds numpy's
+#: global generator with it, which takes seeds below 2**32).
+MAX_RUN_SEED = 500
+#: What RLlib adds to an evaluation EnvRunner's seed.
+_EVALUATION_OFFSET = 1_000_000
+
+
+def rllib_seed(seed: int) -> int:
+    """RLlib's ``config.seed`` for run seed ``seed`` (``0 <= seed < MAX_RUN_SEED``):
+    ``RLLIB_FIRST_SEED + RLLIB_SEED_STRIDE * seed``."""
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < MAX_RUN_SEED:
+        raise InvalidArgumentError(f"seed must be an int in [0, {MAX_RUN_SEED}), got {seed!r}")
+    return RLLIB_FIRST_SEED + RLLIB_SEED_STRIDE * seed
+
+
+def runner_seed(seed: int, worker_index: int, *, evaluation: bool = False) -> int:
+    """The seed that EnvRunner ``worker_index`` of run seed ``seed`` resets its vector
+    environment with, once, before its first sample: RLlib's ``config.seed + worker_index``
+    (``+ 1_000_000`` for evaluation runners).
+
+    Environment ``i`` of that runner then draws from the random stream ``(runner_seed, i)``
+    (ChaCha8 keyed by the seed, stream ``i``; see :class:`~panda_rapier.PandaVectorEnv`) and
+    every later episode continues it (autoresets do not re-seed). Distinct ``(runner, i)``
+    pairs are distinct keys or streams, so no two environments of a run share a stream,
+    whatever the number of runners and environments per runner; Gymnasium's own vector envs,
+    which seed sub-environment ``i`` with ``seed + i``, would give runner 1's environment 1
+    the stream of runner 2's environment 0. Remote runners have ``worker_index`` 1, 2, ...;
+    the local runner (index 0) has an environment only with ``num_env_runners=0``.
+    """
+    if isinstance(worker_index, bool) or not isinstance(worker_index, int) or worker_index < 0:
+        raise InvalidArgumentError(f"worker_index must be an int >= 0, got {worker_index!r}")
+    if worker_index >= _EVALUATION_OFFSET:
+        raise InvalidArgumentError(
+            f"worker_index must be below {_EVALUATION_OFFSET} (RLlib's evaluation offset), "
+            f"got {worker_index}"
+        )
+    return rllib_seed(seed) + worker_index + (_EVALUATION_OFFSET if evaluation else 0)
+
+
+#: Episodes the ``success_rate`` / ``placed_rate`` metrics average over (per EnvRunner).
+OUTCOME_WINDOW = 100
+
+
+class EpisodeOutcomes(RLlibCallback):
+    """An RLlib callback the builders install: when an episode ends, logs its last step's
+    ``is_success`` (and ``is_placed`` where the task has it) to the EnvRunner's metrics, so
+    ``algo.train()``'s result has ``result["env_runners"]["success_rate"]`` and
+    ``["placed_rate"]``: means over each runner's last :data:`OUTCOME_WINDOW` episodes,
+    averaged over runners."""
+
+    def on_episode_end(self, *, episode: Any, metrics_logger: Any = None, **kwargs: Any) -> None:
+        """Logs the ended episode's outcome."""
+        if metrics_logger is None:
+            return
+        info = episode.get_infos(-1)
+        for key, metric in (("is_success", "success_rate"), ("is_placed", "placed_rate")):
+            if key in info:
+                value = float(bool(info[key]))
+                metrics_logger.log_value(metric, value, reduce="mean", window=OUTCOME_WINDOW)
+
+
+def flatten_observations(env: Any = None, spaces: Any = None, device: Any = None) -> Any:
+    """The env-to-module connector the builders install (``config.env_runners(
+    env_to_module_connector=...)`` calls it with the runner's env, spaces and device): RLlib's
+    ``FlattenObservations``, which turns the goal dict into one float vector."""
+    return FlattenObservations()
+
+
+def _check_count(name: str, value: Any, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        raise InvalidArgumentError(f"{name} must be an int >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def configure_env_runners(
+    config: AlgorithmConfig,
+    env_id: str,
+    *,
+    seed: int = 0,
+    num_env_runners: int = 2,
+    num_envs_per_env_runner: int = 16,
+    num_cpus_per_env_runner: int = 1,
+    env_kwargs: Mapping[str, Any] | None = None,
+) -> AlgorithmConfig:
+    """Sets ``config``'s environment, EnvRunners and seed for ``env_id`` (any id in
+    ``panda_rapier.ENV_IDS``) and returns it (the builders below call it; call it yourself on
+    any other RLlib algorithm's config).
+
+    ``env_kwargs``: environment options, as ``gym.make(env_id, **env_kwargs)`` takes them
+    (checked here by building one environment). ``num_threads`` of each runner's vector env is
+    ``num_cpus_per_env_runner`` (at most ``num_envs_per_env_runner``); ``autoreset_mode`` is
+    ``next_step`` and cannot be changed. ``seed`` is the run seed (:func:`rllib_seed`,
+    :func:`runner_seed`). Sets ``config.callbacks(EpisodeOutcomes)`` (subclass it to add
+    your own).
+    """
+    if env_id not in ENV_IDS:
+        raise ConfigError(f"unknown environment id {env_id!r}; see panda_rapier.ENV_IDS")
+    num_env_runners = _check_count("num_env_runners", num_env_runners, 0)
+    num_envs = _check_count("num_envs_per_env_runner", num_envs_per_env_runner, 1)
+    num_cpus = _check_count("num_cpus_per_env_runner", num_cpus_per_env_runner, 1)
+    options = dict(env_kwargs or {})
+    for key in ("num_envs", "num_threads", "render_mode"):
+        if key in options:
+            raise ConfigError(
+                f"env_kwargs cannot set {key!r}: "
+                + {
+                    "num_envs": "use num_envs_per_env_runner",
+                    "num_threads": "it follows num_cpus_per_env_runner",
+                    "render_mode": "EnvRunners do not render",
+                }[key]
+            )
+    mode = options.pop("autoreset_mode", "next_step")
+    if _autoreset_mode(mode) != AutoresetMode.NEXT_STEP:
+        raise ConfigError(
+            f"autoreset_mode must be next_step for RLlib (its EnvRunner assumes it), got {mode!r}"
+        )
+    # Bad options fail here, in the driver, with the option's name, not in every runner.
+    PandaVectorEnv(1, num_threads=1, **env_config(env_id, **options)).close()
+    return (
+        config.environment(
+            f"panda_rapier:{env_id}",  # "module:" makes every runner import panda_rapier
+            env_config={
+                **options,
+                "num_threads": min(num_cpus, num_envs),
+                "autoreset_mode": "next_step",
+            },
+        )
+        .env_runners(
+            num_env_runners=num_env_runners,
+            num_envs_per_env_runner=num_envs,
+            num_cpus_per_env_runner=num_cpus,
+            gym_env_vectorize_mode="vector_entry_point",
+            env_to_module_connector=flatten_observations,
+        )
+        .callbacks(EpisodeOutcomes)
+        .debugging(seed=rllib_seed(seed))
+    )
+
+
+def ppo_config(
+    env_id: str = "panda_rapier/PickAndPlaceDense-v0",
+    *,
+    seed: int = 0,
+    num_env_runners: int = 2,
+    num_envs_per_env_runner: int = 16,
+    num_cpus_per_env_runner: int = 1,
+    env_kwargs: Mapping[str, Any] | None = None,
+    **training: Any,
+) -> PPOConfig:
+    """A ``PPOConfig`` for ``env_id`` on the native vector env (:func:`configure_env_runners`).
+
+    Defaults follow the stable-baselines3 recipe (``hyperparams/ppo.yml``): gamma 0.98, GAE
+    lambda 0.95, learning rate 3e-4, clip 0.2, no entropy bonus, gradient norm clipped at 0.5,
+    10 epochs of minibatches of 1,024 over 4,096 env steps per iteration, 2x256 ReLU
+    networks; on the dense pick-and-place ids the recipe's ``reward_weights={"release": 1.0}``
+    unless ``env_kwargs`` sets ``reward_weights``. ``training`` overrides any
+    ``PPOConfig.training`` argument (``train_batch_size_per_learner``, ``lr``, ...).
+    Without the recipe's observation normaliser and gripper exploration floor this config is
+    not the recipe's equal: see the README.
+    """
+    options = _recipe_env_kwargs(env_id, env_kwargs)
+    settings: dict[str, Any] = {
+        "gamma": 0.98,
+        "lambda_": 0.95,
+        "lr": 3e-4,
+        "clip_param": 0.2,
+        "entropy_coeff": 0.0,
+        "grad_clip": 0.5,
+        "num_epochs": 10,
+        "minibatch_size": 1024,
+        "train_batch_size_per_learner": 4096,
+    }
+    settings.update(training)
+    config = configure_env_runners(
+        PPOConfig(),
+        env_id,
+        seed=seed,
+        num_env_runners=num_env_runners,
+        num_envs_per_env_runner=num_envs_per_env_runner,
+        num_cpus_per_env_runner=num_cpus_per_env_runner,
+        env_kwargs=options,
+    )
+    return _with_networks(config.training(**settings), [256, 256])
+
+
+def _off_policy(config: Any, env_id: str, training: Mapping[str, Any], **runners: Any) -> Any:
+    """What SAC and TQC share: dense ids only, the off-policy settings."""
+    if env_id in ENV_IDS and "Dense" not in env_id:
+        raise ConfigError(
+            f"{env_id} has the sparse reward and RLlib has no hindsight experience replay: use "
+            f"its Dense id, or stable-baselines3's TQC + HER recipe (panda-rapier train --algo "
+            f"tqc, swept on Ray with panda_rapier.tuning)"
+        )
+    settings: dict[str, Any] = {
+        "gamma": 0.95,
+        "actor_lr": 3e-4,
+        "critic_lr": 3e-4,
+        "alpha_lr": 3e-4,
+        "tau": 0.005,
+        "train_batch_size_per_learner": 256,
+        "num_steps_sampled_before_learning_starts": 1000,
+        # Uniform sampling, as stable-baselines3's (RLlib's default is prioritised).
+        "replay_buffer_config": {"type": "EpisodeReplayBuffer", "capacity": 1_000_000},
+    }
+    settings.update(training)
+    runners["env_kwargs"] = _recipe_env_kwargs(env_id, runners.get("env_kwargs"))
+    config = configure_env_runners(config, env_id, **runners).training(**settings)
+    return _with_networks(config, [256, 256])
+
+
+def sac_config(
+    env_id: str = "panda_rapier/PickAndPlaceDense-v0",
+    *,
+    seed: int = 0,
+    num_env_runners: int = 2,
+    num_envs_per_env_runner: int = 4,
+    num_cpus_per_env_runner: int = 1,
+    env_kwargs: Mapping[str, Any] | None = None,
+    **training: Any,
+) -> SACConfig:
+    """A ``SACConfig`` for a dense-reward ``env_id`` on the native vector env
+    (:func:`configure_env_runners`): gamma 0.95, learning rates 3e-4, tau 0.005, batches of
+    256 drawn uniformly from a 1 M-step replay buffer once 1,000 steps are in, 2x256 ReLU
+    networks; on the dense pick-and-place ids ``reward_weights={"release": 1.0}`` as for
+    :func:`ppo_config`.
+    ``training`` overrides any ``SACConfig.training`` argument. A sparse id is a
+    :class:`~panda_rapier.ConfigError` (RLlib has no HER)."""
+    return _off_policy(
+        SACConfig(),
+        env_id,
+        training,
+        seed=seed,
+        num_env_runners=num_env_runners,
+        num_envs_per_env_runner=num_envs_per_env_runner,
+        num_cpus_per_env_runner=num_cpus_per_env_runner,
+        env_kwargs=env_kwargs,
+    )
+
+
+def tqc_config(
+    env_id: str = "panda_rapier/PickAndPlaceDense-v0",
+    *,
+    seed: int = 0,
+    num_env_runners: int = 2,
+    num_envs_per_env_runner: int = 4,
+    num_cpus_per_env_runner: int = 1,
+    env_kwargs: Mapping[str, Any] | None = None,
+    **training: Any,
+) -> TQCConfig:
+    """A ``TQCConfig`` for a dense-reward ``env_id``: :func:`sac_config`'s settings plus
+    TQC's 2 critics of 25 quantiles, the top 2 of each dropped (``training`` overrides any
+    ``TQCConfig.training`` argument, ``n_quantiles`` and friends included)."""
+    settings = {"n_quantiles": 25, "n_critics": 2, "top_quantiles_to_drop_per_net": 2}
+    settings.update(training)
+    return _off_policy(
+        TQCConfig(),
+        env_id,
+        settings,
+        seed=seed,
+        num_env_runners=num_env_runners,
+        num_envs_per_env_runner=num_envs_per_env_runner,
+        num_cpus_per_env_runner=num_cpus_per_env_runner,
+        env_kwargs=env_kwargs,
+    )
+
+
+def _recipe_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The SB3 recipes' environment option on dense pick-and-place: the ``release`` term."""
+    options = dict(env_kwargs or {})
+    if env_id.startswith("panda_rapier/PickAndPlace") and "Dense" in env_id:
+        options.setdefault("reward_weights", {"release": 1.0})
+    return options
+
+
+def _with_networks(config: Any, hidden: list[int]) -> Any:
+    from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
+
+    return config.rl_module(
+        model_config=DefaultModelConfig(fcnet_hiddens=hidden, fcnet_activation="relu")
+    )

@@ -1,0 +1,345 @@
+"""Scale-out on Ray, on a real local Ray (2 CPUs): RLlib (new API stack) with the native vector
+env in every EnvRunner (panda_rapier.rllib), Ray Tune over the stable-baselines3 recipes
+(panda_rapier.tuning), and the two example scripts."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+pytest.importorskip("ray", reason="needs Ray: pip install '.[rllib]'")
+pytest.importorskip("ray.rllib", reason="needs RLlib: pip install '.[rllib]'")
+pytest.importorskip("ray.tune", reason="needs Ray Tune: pip install '.[rllib]'")
+pytest.importorskip("sb3_contrib", reason="the Tune sweeps train the SB3 recipes: '.[train]'")
+
+import ray
+from gymnasium.vector import AutoresetMode
+from ray import tune
+from ray.rllib.algorithms.ppo import PPOConfig
+from ray.rllib.env.single_agent_episode import SingleAgentEpisode
+from ray.rllib.utils.metrics.metrics_logger import MetricsLogger
+
+from panda_rapier import ConfigError, InvalidArgumentError, PandaVectorEnv, env_config
+from panda_rapier._common import DICT_KEYS
+from panda_rapier.rllib import (
+    MAX_RUN_SEED,
+    RLLIB_FIRST_SEED,
+    EpisodeOutcomes,
+    configure_env_runners,
+    ppo_config,
+    rllib_seed,
+    runner_seed,
+    sac_config,
+    tqc_config,
+)
+from panda_rapier.tuning import METRICS, check_sweep, sb3_trainable, sb3_tuner
+
+ROOT = Path(__file__).resolve().parents[2]
+DENSE = "panda_rapier/PickAndPlaceDense-v0"
+SEED = 3
+NUM_ENVS = 4
+
+
+def run(*args: str | Path) -> str:
+    result = subprocess.run(
+        [sys.executable, *map(str, args)], capture_output=True, text=True, timeout=600, check=False
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    return result.stdout
+
+
+# The example scripts start their own local Ray: they run first, before this module's.
+
+
+def test_rllib_example_trains_and_checkpoints(tmp_path: Path) -> None:
+    out = run(ROOT / "examples/rllib_train.py", "--iterations", "1", "--num-env-runners", "1",
+              "--num-envs-per-env-runner", "2", "--train-batch-size", "140",
+              "--minibatch-size", "70", "--num-cpus", "2", "--json", tmp_path / "lines.json",
+              "--checkpoint", tmp_path / "checkpoint")  # fmt: skip
+    (line,) = json.loads((tmp_path / "lines.json").read_text())
+    assert line["env_steps"] == 140 and line["episodes"] == 2
+    assert math.isfinite(line["episode_return_mean"]) and 0 <= line["success_rate"] <= 1
+    assert "iteration 1: 140 env steps, 2 episodes" in out
+    assert (tmp_path / "checkpoint" / "algorithm_state.pkl").is_file()
+
+
+def test_tune_example_sweeps_learning_rates(tmp_path: Path) -> None:
+    out = run(ROOT / "examples/tune_sb3.py", "--algo", "ppo", "--env-id", DENSE, "--seeds", "0",
+              "--learning-rates", "1e-4", "3e-4", "--set", "n_steps=8", "--set", "batch_size=64",
+              "--timesteps", "128", "--n-envs", "16", "--eval-episodes", "8", "--num-cpus", "2",
+              "--storage", tmp_path, "--name", "sweep",
+              "--json", tmp_path / "rows.json")  # fmt: skip
+    rows = json.loads((tmp_path / "rows.json").read_text())
+    assert sorted(r["hyperparams"]["learning_rate"] for r in rows) == [1e-4, 3e-4]
+    assert all(r["env_steps"] == 128 and 0 <= r["success_rate"] <= 1 for r in rows)
+    assert "best: seed 0" in out
+
+
+@pytest.fixture(scope="module")
+def ray_session() -> Iterator[None]:
+    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False)
+    yield
+    ray.shutdown()
+
+
+@pytest.fixture(scope="class")
+def ppo(ray_session: None) -> Iterator[Any]:
+    """PPO with 2 EnvRunners x 4 environments, 70-step fragments: one iteration is exactly one
+    whole episode per environment."""
+    config = ppo_config(
+        DENSE,
+        seed=SEED,
+        num_env_runners=2,
+        num_envs_per_env_runner=NUM_ENVS,
+        num_cpus_per_env_runner=1,
+        train_batch_size_per_learner=2 * NUM_ENVS * 70,
+        minibatch_size=140,
+        num_epochs=1,
+    )
+    algo = config.build_algo()
+    yield algo
+    algo.stop()
+
+
+class TestPPO:
+    """One PPO algorithm (its runners hold both CPUs: it is stopped before the next tests)."""
+
+    def test_iteration_samples_whole_episodes_of_the_native_vector_env(self, ppo: Any) -> None:
+        result = ppo.train()
+        runners = result["env_runners"]
+        assert result["num_env_steps_sampled_lifetime"] == 2 * NUM_ENVS * 70
+        assert runners["num_env_steps_sampled"] == 2 * NUM_ENVS * 70
+        assert runners["num_episodes"] == 2 * NUM_ENVS
+        assert runners["episode_len_min"] == runners["episode_len_max"] == 70
+        for key in ("episode_return_mean", "episode_return_min", "episode_return_max"):
+            assert math.isfinite(runners[key])
+        assert 0 <= runners["success_rate"] <= 1 and 0 <= runners["placed_rate"] <= 1
+        learner = result["learners"]["default_policy"]
+        assert all(math.isfinite(learner[k]) for k in ("total_loss", "policy_loss", "vf_loss"))
+
+        def describe(runner: Any) -> dict[str, Any]:
+            env = runner.env.unwrapped
+            return {
+                "index": runner.worker_index,
+                "type": type(env),
+                "num_envs": env.num_envs,
+                "num_threads": env.num_threads,
+                "autoreset": env.metadata["autoreset_mode"],
+                "release": env.config["reward_weights"]["release"],
+            }
+
+        described = ppo.env_runner_group.foreach_env_runner(describe, local_env_runner=False)
+        assert sorted(d["index"] for d in described) == [1, 2]
+        for d in described:
+            assert d["type"] is PandaVectorEnv
+            assert d["num_envs"] == NUM_ENVS and d["num_threads"] == 1
+            assert d["autoreset"] == AutoresetMode.NEXT_STEP and d["release"] == 1.0
+
+    def test_runners_draw_distinct_reproducible_streams(self, ppo: Any) -> None:
+        def first_observations(runner: Any) -> tuple[int, np.ndarray]:
+            """Runner ``k``'s first observations after building its env afresh (flattened by the
+            connector), one row per environment. (Nested: Ray pickles it by value.)"""
+            runner.make_env()
+            episodes = runner.sample(num_timesteps=runner.num_envs, random_actions=True)
+            return runner.worker_index, np.stack([e.get_observations(0) for e in episodes])
+
+        first = dict(
+            ppo.env_runner_group.foreach_env_runner(first_observations, local_env_runner=False)
+        )
+        again = dict(
+            ppo.env_runner_group.foreach_env_runner(first_observations, local_env_runner=False)
+        )
+        assert sorted(first) == [1, 2]
+        for k in (1, 2):
+            np.testing.assert_array_equal(first[k], again[k])  # reproducible
+            # Runner k's environment i is the stream (runner_seed(seed, k), i) of the vector env.
+            env = PandaVectorEnv(
+                NUM_ENVS, num_threads=1, **env_config(DENSE, reward_weights={"release": 1.0})
+            )
+            obs, _ = env.reset(seed=runner_seed(SEED, k))
+            env.close()
+            np.testing.assert_array_equal(
+                first[k], np.concatenate([obs[key] for key in DICT_KEYS], axis=1)
+            )
+        # No environment of runner 1 starts like any of runner 2's, nor like another of its own.
+        rows = np.concatenate([first[1], first[2]])
+        assert len({row.tobytes() for row in rows}) == 2 * NUM_ENVS
+
+
+@pytest.mark.parametrize(
+    "builder",
+    [
+        sac_config,
+        pytest.param(
+            tqc_config,
+            # RLlib's TQC learner broadcasts (B, 25, 1) against (B, 1, 46) on purpose (the
+            # pairwise quantile Huber loss); torch warns about the shapes on every update.
+            marks=pytest.mark.filterwarnings("ignore:Using a target size:UserWarning"),
+        ),
+    ],
+)
+def test_off_policy_configs_train(ray_session: None, builder: Any) -> None:
+    algo = builder(
+        seed=SEED,
+        num_env_runners=1,
+        num_envs_per_env_runner=NUM_ENVS,
+        num_steps_sampled_before_learning_starts=64,
+        train_batch_size_per_learner=32,
+    ).build_algo()
+    try:
+        result = algo.train()
+        (kind,) = algo.env_runner_group.foreach_env_runner(
+            lambda r: type(r.env.unwrapped), local_env_runner=False
+        )
+    finally:
+        algo.stop()
+    assert kind is PandaVectorEnv
+    assert result["num_env_steps_sampled_lifetime"] >= 100
+    learner = result["learners"]["default_policy"]
+    losses = {k: v for k, v in learner.items() if k.endswith("_loss")}
+    assert {"qf_loss", "policy_loss", "alpha_loss"} <= set(losses)
+    assert all(math.isfinite(v) for v in losses.values())
+    assert learner["num_module_steps_trained_lifetime"] > 0
+
+
+def test_episode_outcomes_are_logged_as_rates() -> None:
+    logger = MetricsLogger()
+    for success, placed in [(True, True), (False, True), (False, False), (True, True)]:
+        infos = [{}, {"is_success": np.bool_(success), "is_placed": np.bool_(placed)}]
+        episode = SingleAgentEpisode(observations=[np.zeros(3), np.ones(3)],
+                                     actions=[np.zeros(4)], rewards=[0.0], infos=infos,
+                                     terminated=True)  # fmt: skip
+        EpisodeOutcomes().on_episode_end(episode=episode, metrics_logger=logger, env_index=0)
+    assert logger.peek("success_rate") == 0.5 and logger.peek("placed_rate") == 0.75
+
+
+def test_seed_ranges() -> None:
+    assert rllib_seed(0) == RLLIB_FIRST_SEED == runner_seed(0, 0)
+    assert runner_seed(1, 2) == 2_002_000_002
+    assert runner_seed(1, 2, evaluation=True) == 2_003_000_002
+    # The last run seed's evaluation runners stay below the Minari datasets' seeds (3e9) and
+    # below 2**32 (RLlib seeds numpy's global generator with it).
+    assert runner_seed(MAX_RUN_SEED - 1, 999_999, evaluation=True) < 3_000_000_000 < 2**32
+    # Consecutive run seeds never share a runner seed, evaluation runners included.
+    assert runner_seed(0, 999_999, evaluation=True) < runner_seed(1, 0)
+    for bad in (-1, MAX_RUN_SEED, 1.0, True):
+        with pytest.raises(InvalidArgumentError, match="seed"):
+            rllib_seed(bad)  # type: ignore[arg-type]
+    with pytest.raises(InvalidArgumentError, match="worker_index"):
+        runner_seed(0, -1)
+    with pytest.raises(InvalidArgumentError, match="worker_index"):
+        runner_seed(0, 1_000_000)
+
+
+def test_config_builders_refuse_bad_input() -> None:
+    with pytest.raises(ConfigError, match="unknown environment id"):
+        ppo_config("panda_rapier/NoSuchTask-v0")
+    with pytest.raises(ConfigError, match="hindsight"):
+        sac_config("panda_rapier/PickAndPlace-v0")
+    with pytest.raises(ConfigError, match="hindsight"):
+        tqc_config("panda_rapier/ReachJoints-v0")
+    with pytest.raises(ConfigError, match="num_cpus_per_env_runner"):
+        ppo_config(env_kwargs={"num_threads": 4})
+    with pytest.raises(ConfigError, match="num_envs_per_env_runner"):
+        ppo_config(env_kwargs={"num_envs": 4})
+    with pytest.raises(ConfigError, match="next_step"):
+        ppo_config(env_kwargs={"autoreset_mode": "same_step"})
+    with pytest.raises(ConfigError, match="control_frequency"):
+        ppo_config(env_kwargs={"control_frequency": -5})
+    with pytest.raises(InvalidArgumentError, match="num_env_runners"):
+        ppo_config(num_env_runners=-1)
+    with pytest.raises(InvalidArgumentError, match="num_envs_per_env_runner"):
+        sac_config(DENSE, num_envs_per_env_runner=0)
+    with pytest.raises(InvalidArgumentError, match="num_cpus_per_env_runner"):
+        tqc_config(DENSE, num_cpus_per_env_runner=0.5)  # type: ignore[arg-type]
+    with pytest.raises(InvalidArgumentError, match="seed"):
+        ppo_config(seed=-1)
+
+
+def test_configs_set_the_env_runner_side() -> None:
+    config = configure_env_runners(
+        PPOConfig(), "panda_rapier/ReachJointsDense-v0", seed=2, num_env_runners=3,
+        num_envs_per_env_runner=8, num_cpus_per_env_runner=2, env_kwargs={"control_frequency": 50},
+    )  # fmt: skip
+    assert config.env == "panda_rapier:panda_rapier/ReachJointsDense-v0"
+    assert config.env_config == {
+        "control_frequency": 50,
+        "num_threads": 2,
+        "autoreset_mode": "next_step",
+    }
+    assert config.gym_env_vectorize_mode == "vector_entry_point"
+    assert (config.num_env_runners, config.num_envs_per_env_runner) == (3, 8)
+    assert config.num_cpus_per_env_runner == 2 and config.seed == rllib_seed(2)
+    assert ppo_config().env_config["reward_weights"] == {"release": 1.0}
+    assert ppo_config(env_kwargs={"reward_weights": {}}).env_config["reward_weights"] == {}
+    assert tqc_config().n_quantiles == 25 and tqc_config(n_quantiles=10).n_quantiles == 10
+    assert ppo_config(lr=1e-4).lr == 1e-4
+
+
+def test_sweeps_are_checked_before_they_start() -> None:
+    assert check_sweep("tqc", "panda_rapier/PickAndPlace-v0")["batch_size"] == 2048
+    with pytest.raises(InvalidArgumentError, match="algo"):
+        check_sweep("bc", "panda_rapier/PickAndPlace-v0")
+    with pytest.raises(ConfigError, match="unknown environment id"):
+        check_sweep("ppo", "panda_rapier/Nope-v0")
+    with pytest.raises(ConfigError, match="no recipe"):
+        check_sweep("ppo", "panda_rapier/Reach-v0")
+    with pytest.raises(ConfigError, match="lerning_rate"):
+        check_sweep("ppo", DENSE, {"lerning_rate": 1e-3})
+    with pytest.raises(InvalidArgumentError, match="seeds"):
+        sb3_tuner("ppo", DENSE, seeds=[])
+    with pytest.raises(InvalidArgumentError, match="cpus_per_trial"):
+        sb3_tuner("ppo", DENSE, cpus_per_trial=0)
+    with pytest.raises(ConfigError, match="unknown sb3_trainable config keys"):
+        sb3_trainable({"algo": "ppo", "env_id": DENSE, "sed": 1})
+
+
+def test_tune_sweep_of_tqc_her_reports_success_rate(ray_session: None, tmp_path: Path) -> None:
+    learning_rates = [1e-3, 3e-4]
+    tuner = sb3_tuner(
+        "tqc",
+        "panda_rapier/PickAndPlace-v0",
+        seeds=[0],
+        hyperparams={
+            "learning_rate": tune.grid_search(learning_rates),
+            "learning_starts": 140,
+            "batch_size": 64,
+            "buffer_size": 10_000,
+            "policy_kwargs": "dict(net_arch=[64, 64], n_critics=2)",
+        },
+        timesteps=280,
+        eval_every=140,
+        eval_episodes=8,
+        storage_path=tmp_path,
+        name="sweep",
+    )
+    results = tuner.fit()
+    assert len(results) == 2 and not results.errors
+    seen = []
+    for result in results:
+        assert set(METRICS) <= set(result.metrics)
+        assert result.metrics["training_iteration"] == 2  # evaluations at 140 and 280 steps
+        assert result.metrics["env_steps"] == 280 and 0 <= result.metrics["success_rate"] <= 1
+        history = result.metrics_dataframe
+        assert list(history["env_steps"]) == [140, 280]
+        trial = Path(result.path)
+        lines = [json.loads(x) for x in (trial / "run/evaluations.jsonl").read_text().splitlines()]
+        assert [x["success_rate"] for x in lines] == list(history["success_rate"])
+        assert (trial / "run/model.zip").is_file()
+        recipe = (trial / "recipe.yml").read_text()
+        assert "HerReplayBuffer" in recipe and "batch_size: 64" in recipe
+        run_info = json.loads((trial / "run/run.json").read_text())
+        assert run_info["seed"] == 0 and run_info["recipe"]["batch_size"] == 64
+        seen.append(run_info["recipe"]["learning_rate"])
+    assert sorted(seen) == sorted(learning_rates)
+    assert results.get_best_result().metrics["success_rate"] == max(
+        r.metrics["success_rate"] for r in results
+    )
