@@ -111,6 +111,11 @@ def runner_seed(seed: int, worker_index: int, *, evaluation: bool = False) -> in
     which seed sub-environment ``i`` with ``seed + i``, would give runner 1's environment 1
     the stream of runner 2's environment 0. Remote runners have ``worker_index`` 1, 2, ...;
     the local runner (index 0) has an environment only with ``num_env_runners=0``.
+
+    RLlib re-seeds, with the same seed, whenever a runner samples by episodes
+    (``sample(num_episodes=...)``, as evaluation with ``evaluation_duration_unit="episodes"``
+    does): such evaluations replay the same starts every time, like the fixed validation
+    seeds of ``panda-rapier train``. Training runners sample by timesteps and are seeded once.
     """
     if isinstance(worker_index, bool) or not isinstance(worker_index, int) or worker_index < 0:
         raise InvalidArgumentError(f"worker_index must be an int >= 0, got {worker_index!r}")
