@@ -210,6 +210,34 @@ def test_off_policy_configs_train(ray_session: None, builder: Any) -> None:
     assert learner["num_module_steps_trained_lifetime"] > 0
 
 
+def test_checkpoints_restore_and_train_on(ray_session: None, tmp_path: Path) -> None:
+    from ray.rllib.algorithms.algorithm import Algorithm
+
+    config = ppo_config(
+        DENSE,
+        seed=SEED,
+        num_env_runners=1,
+        num_envs_per_env_runner=2,
+        train_batch_size_per_learner=140,
+        minibatch_size=70,
+        num_epochs=1,
+    )
+    algo = config.build_algo()
+    algo.train()
+    algo.save_to_path(str(tmp_path))
+    algo.stop()
+    restored = Algorithm.from_checkpoint(str(tmp_path))
+    try:
+        result = restored.train()
+        (kind,) = restored.env_runner_group.foreach_env_runner(
+            lambda r: type(r.env.unwrapped), local_env_runner=False
+        )
+    finally:
+        restored.stop()
+    assert kind is PandaVectorEnv
+    assert result["training_iteration"] == 2 and result["num_env_steps_sampled_lifetime"] == 280
+
+
 def test_episode_outcomes_are_logged_as_rates() -> None:
     logger = MetricsLogger()
     for success, placed in [(True, True), (False, True), (False, False), (True, True)]:
