@@ -9,10 +9,11 @@
 //! The other tasks branch off early: `reach` moves the open hand to the goal; `push` closes the
 //! hand, lines it up behind the cube on the line from the goal through the cube and pushes
 //! along that line (see [`Phase::Align`] and [`Phase::Push`]); `lift` is pick-and-place with
-//! the goal in the air.
+//! the goal in the air; `stack` is pick-and-place twice, with a gentler grasp (see `stack.rs`).
 
 mod params;
 mod push;
+mod stack;
 
 pub use params::ScriptedParams;
 
@@ -100,6 +101,8 @@ struct Slots {
     width: usize,
     /// The cube's orientation, in the tasks that observe it.
     cube_orientation: Option<std::ops::Range<usize>>,
+    /// `stack`: the two cubes' orientations.
+    stack_orientations: Option<[std::ops::Range<usize>; 2]>,
 }
 
 impl Slots {
@@ -113,6 +116,10 @@ impl Slots {
             tcp_velocity: layout.robot_slot(TCP_VELOCITY),
             width: layout.robot_slot(GRIPPER_WIDTH).start,
             cube_orientation: layout.slot("cube_orientation"),
+            stack_orientations: layout
+                .slot("cube1_orientation")
+                .zip(layout.slot("cube2_orientation"))
+                .map(|(a, b)| [a, b]),
         }
     }
 }
@@ -255,44 +262,19 @@ impl ScriptedPolicy {
             return Ok(self.decide_push(observation, cube, goal, tcp, width));
         }
         let horizontal = |v: Vector3<f64>| v.xy().norm();
-        // The surface the cube is put down on: the platform or floor under the goal, or, for
-        // the top cube of a stack, the bottom cube.
-        // `careful`: the second cube of a stack, reached from the side at speed, where the hand
-        // goes down only once it has stopped moving sideways.
-        let (cube, goal, goal_surface, hover_height, careful) =
-            if self.config.task == TaskKind::Stack {
-                let cube2 = vector_at(observation, &(s.achieved.start + 3..s.achieved.end));
-                let goal2 = vector_at(observation, &(s.desired.start + 3..s.desired.end));
-                // The bottom cube is done once it is at its goal and the hand is not low beside
-                // it (still holding it, letting go, or rising): a hand heading sideways for the
-                // other cube from there would sweep the bottom one off the platform. Carrying
-                // the other cube onto the stack does not count as undone.
-                let holding_second = horizontal(cube2 - tcp) < p.in_hand_tolerance
-                    && (cube2.z - tcp.z).abs() < p.in_hand_height;
-                let low_at_first = horizontal(cube - tcp) < p.stack_clear_distance
-                    && tcp.z - cube.z < p.in_hand_height + 0.03;
-                let first_done = (cube - goal).norm() < self.config.success_threshold
-                    && (holding_second || !low_at_first);
-                if first_done {
-                    // Put the top cube where the bottom one is, not where its goal is: a stack
-                    // must line up, and the bottom cube is within the threshold of its goal.
-                    let on_top =
-                        Vector3::new(cube.x, cube.y, goal2.z.max(cube.z + 2.0 * self.cube_half));
-                    (
-                        cube2,
-                        on_top,
-                        cube.z + self.cube_half,
-                        p.stack_hover_height,
-                        true,
-                    )
-                } else {
-                    let surface = self.config.surface_height(goal.x, goal.y);
-                    (cube, goal, surface, p.hover_height, false)
-                }
-            } else {
-                let surface = self.config.surface_height(goal.x, goal.y);
-                (cube, goal, surface, p.hover_height, false)
-            };
+        let stack = self.config.task == TaskKind::Stack;
+        let target = if stack {
+            self.stack_target(observation, cube, goal, tcp)
+        } else {
+            self.single_target(cube, goal)
+        };
+        let (cube, goal, goal_surface, hover_height, careful) = (
+            target.cube,
+            target.goal,
+            target.goal_surface,
+            target.hover_height,
+            target.careful,
+        );
         let relative = cube - tcp;
         let tcp_speed = v3(&s.tcp_velocity).norm();
         let finger_speed = self
@@ -305,7 +287,13 @@ impl ScriptedPolicy {
         // Fingers short of fully open: closing, squeezing something, or shut on nothing.
         let hand_closed = width < 0.9 * self.open_width;
         let squeezing = hand_closed && width > 0.5 * self.cube_half;
-        let held = around_cube && squeezing && finger_speed < 0.02;
+        // `stack`: besides, the fingers are on the cube (not still closing on it), and a cube
+        // off the surface under it stays held even while the fingers jiggle (taken for let go,
+        // it would be released in mid-air over the stack).
+        let grip = self.grip(target.rotation.as_ref());
+        let touching = !stack || width < grip.extent + p.stack_touch_margin;
+        let steady = finger_speed < 0.02 || (stack && self.aloft(cube));
+        let held = around_cube && squeezing && touching && steady;
         let air_goal = goal.z > goal_surface + self.cube_half + 0.01;
         let cube_to_goal = (cube - goal).norm();
 
@@ -319,6 +307,14 @@ impl ScriptedPolicy {
             },
             gripper,
         };
+        if stack {
+            let held_or_open = held || !squeezing;
+            if let Some(d) =
+                self.stack_regrasp(&target, &grip, tcp, width, around_cube, held_or_open)
+            {
+                return Ok(d);
+            }
+        }
         if held {
             let offset_to_tcp = -relative;
             let off_goal = horizontal(goal - cube);
@@ -327,7 +323,10 @@ impl ScriptedPolicy {
             } else {
                 p.place_tolerance
             };
-            if off_goal > place_tolerance {
+            // Onto a stack, the cube goes down only once the hand has stopped moving sideways
+            // (arriving at speed, the arm overshoots and puts it down on the bottom one's edge).
+            let sliding = careful && v3(&s.tcp_velocity).xy().norm() > p.settle_speed;
+            if off_goal > place_tolerance || sliding {
                 // Carry at the goal's height plus clearance, never lower than the cube is now,
                 // and move sideways only where the cube clears every surface on the way.
                 let carry_z = (goal.z + if air_goal { 0.0 } else { 0.03 }).max(cube.z);
@@ -340,6 +339,8 @@ impl ScriptedPolicy {
                     // cube meets the surface only once it is over the goal.
                     let z = if air_goal {
                         goal.z
+                    } else if sliding {
+                        cube.z
                     } else {
                         (goal.z + 2.0 * off_goal).min(cube.z)
                     };
@@ -380,7 +381,12 @@ impl ScriptedPolicy {
         if around_cube && (hand_closed || (centred && at_cube_height && settled)) {
             // Squeeze with the hand held still: a hand still moving, or chasing the cube while
             // the fingers push it, shoves the cube out of the grasp.
-            return Ok(decision(Phase::Close, tcp, 0.0, -1.0));
+            let gripper = if stack {
+                self.stack_close_command(width, grip.extent)
+            } else {
+                -1.0
+            };
+            return Ok(decision(Phase::Close, tcp, 0.0, gripper));
         }
         if around_cube && centred && at_cube_height {
             // In place but still moving: let the hand come to rest over the cube.
@@ -523,6 +529,18 @@ impl ScriptedPolicy {
     /// gripper dof and its mimic).
     fn finger_slots(&self) -> std::ops::Range<usize> {
         self.arm_dofs.len()..self.slots.joint_positions.len()
+    }
+
+    /// The cube and where it goes, in the tasks with one cube.
+    fn single_target(&self, cube: Vector3<f64>, goal: Vector3<f64>) -> stack::Target {
+        stack::Target {
+            cube,
+            goal,
+            goal_surface: self.config.surface_height(goal.x, goal.y),
+            hover_height: self.params.hover_height,
+            careful: false,
+            rotation: None,
+        }
     }
 
     /// Whether the cube, moved sideways by `(dx, dy)`, keeps its bottom `carry_clearance`

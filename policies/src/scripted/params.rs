@@ -43,6 +43,20 @@ pub struct ScriptedParams {
     pub stack_slow_distance: f64,
     /// `stack`: ...to this speed (a fraction of a full action).
     pub stack_approach_speed: f64,
+    /// `stack`: a cube held tilted more than this (rad) right after the grasp...
+    pub stack_max_tilt: f64,
+    /// `stack`: ...with its centre less than this above its resting height is let go and
+    /// grasped again.
+    pub stack_regrasp_height: f64,
+    /// `stack`: the fingers first close to this far (m) beyond the cube's width across them...
+    pub stack_close_gap: f64,
+    /// `stack`: ...and squeeze once they are within this of it...
+    pub stack_squeeze_from: f64,
+    /// `stack`: ...and the cube counts as held once they are within this of it.
+    pub stack_touch_margin: f64,
+    /// `stack`: a squeezed cube whose centre is this far above its resting height on the
+    /// surface under it counts as held whatever the fingers' speed.
+    pub stack_aloft_height: f64,
     /// `push`: height of the fingertips' path over the cube's top when passing over it.
     pub push_clearance: f64,
     /// `push`: height of the TCP above the cube's centre while pushing. The fingertip pads
@@ -103,6 +117,12 @@ impl Default for ScriptedParams {
             stack_clear_distance: 0.1,
             stack_slow_distance: 0.15,
             stack_approach_speed: 0.5,
+            stack_max_tilt: 0.15,
+            stack_regrasp_height: 0.02,
+            stack_close_gap: 0.003,
+            stack_squeeze_from: 0.005,
+            stack_touch_margin: 0.002,
+            stack_aloft_height: 0.01,
             push_clearance: 0.03,
             push_height: 0.008,
             push_descent_height: 0.03,
