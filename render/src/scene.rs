@@ -220,12 +220,11 @@ impl Renderer {
         light: &Vector3<f64>,
         casts: bool,
     ) {
-        let slot = index;
-        if self.meshes.len() <= slot {
+        if self.meshes.len() <= index {
             self.meshes
-                .resize_with(slot + 1, || (VisualShape::Plane, Vec::new()));
+                .resize_with(index + 1, || (VisualShape::Plane, Vec::new()));
         }
-        let (shape, triangles) = &mut self.meshes[slot];
+        let (shape, triangles) = &mut self.meshes[index];
         if *shape != p.shape || triangles.is_empty() {
             triangles.clear();
             tessellate_with(&p.shape, self.detail, triangles);
@@ -242,7 +241,7 @@ impl Renderer {
             }
             self.draw_triangle(&world, &normal, color, light);
         }
-        self.meshes[slot].1 = triangles;
+        self.meshes[index].1 = triangles;
     }
 
     fn draw_floor(&mut self, p: &VisualPrimitive, light: &Vector3<f64>) {
