@@ -444,19 +444,10 @@ def _model_env(model_path: Path) -> tuple[str | None, dict[str, Any]]:
     )
 
 
-def _model_control_mode(model_path: Path) -> str:
-    """The action mode a saved model acts in, from its action space."""
-    from stable_baselines3.common.save_util import load_from_zip_file
-
-    data, _, _ = load_from_zip_file(model_path, load_data=True, device="cpu")
-    shape = getattr((data or {}).get("action_space"), "shape", None)
-    return "joints" if shape == (8,) else "ee"
-
-
 def _run_eval(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from .evaluation import evaluate, load_sb3_model, model_observation
+    from .evaluation import evaluate, load_sb3_model, model_observation, saved_spaces
     from .policy import ScriptedPolicy
 
     overrides: dict[str, Any] = {}
@@ -484,11 +475,14 @@ def _run_eval(args: argparse.Namespace) -> int:
         recorded_id, recorded = _model_env(model_path)
         env_id = args.env_id or recorded_id or DEFAULT_ENV_ID
         overrides = {**(recorded if env_id == recorded_id else {}), **overrides}
+        observation_space, action_space = saved_spaces(model_path)
         if args.control is None and "control_mode" not in overrides:
-            overrides["control_mode"] = _model_control_mode(model_path)
+            # The action mode the model acts in, from its action space.
+            shape = getattr(action_space, "shape", None)
+            overrides["control_mode"] = "joints" if shape == (8,) else "ee"
         from .sb3 import make_vec_env
 
-        observation = model_observation(model_path)
+        observation = model_observation(observation_space)
         # The model is loaded with an environment of the evaluation's spaces: a mismatch is
         # reported by stable-baselines3, and hindsight replay buffers need one.
         model = load_sb3_model(

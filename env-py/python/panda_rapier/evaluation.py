@@ -42,6 +42,7 @@ __all__ = [
     "evaluate",
     "load_sb3_model",
     "model_observation",
+    "saved_spaces",
     "wilson_interval",
 ]
 
@@ -235,16 +236,23 @@ def load_sb3_model(path: str | Path, env: Any = None, algo: str | None = None) -
     return algorithm.load(path, env=env, device="cpu")
 
 
-def model_observation(model_path: str | Path) -> dict[str, Any]:
-    """The image options (``obs_mode``, ``image_size``) a saved model was trained with, read off
-    its observation space: none for state observations. Images under keys other than the default
-    camera's ``rgb`` need their cameras, which only the Python API takes."""
-    from gymnasium import spaces
+def saved_spaces(model_path: str | Path) -> tuple[Any, Any]:
+    """The observation and action spaces saved in a stable-baselines3 model file (``None``
+    each where absent), read without building the model."""
     from stable_baselines3.common.save_util import load_from_zip_file
 
-    model_path = Path(model_path)
-    data, _, _ = load_from_zip_file(model_path, load_data=True, device="cpu")
-    space = (data or {}).get("observation_space")
+    data, _, _ = load_from_zip_file(Path(model_path), load_data=True, device="cpu")
+    data = data or {}
+    return data.get("observation_space"), data.get("action_space")
+
+
+def model_observation(space: Any) -> dict[str, Any]:
+    """The image options (``obs_mode``, ``image_size``) of a model trained on the observation
+    ``space`` (as :func:`saved_spaces` reads it): none for state observations. Images under keys
+    other than the default camera's ``rgb`` need their cameras, which only the Python API
+    takes."""
+    from gymnasium import spaces
+
     if not isinstance(space, spaces.Dict):
         return {}
     images = {
@@ -254,7 +262,7 @@ def model_observation(model_path: str | Path) -> dict[str, Any]:
         return {}
     if set(images) != {"rgb"}:
         raise ConfigError(
-            f"{model_path} observes the cameras {sorted(images)}: evaluate it from Python with "
+            f"the model observes the cameras {sorted(images)}: evaluate it from Python with "
             "panda_rapier.evaluation.evaluate(..., cameras=...)"
         )
     shape = images["rgb"].shape
@@ -267,17 +275,16 @@ def model_observation(model_path: str | Path) -> dict[str, Any]:
     }
 
 
-Actor = Callable[[np.ndarray], np.ndarray]
+#: What :func:`evaluate` steps with: a function from flat observation rows (and, with image
+#: observations, the image rows) to action rows.
+Actor = Callable[[np.ndarray, np.ndarray | None], np.ndarray]
 #: Called by :func:`evaluate` before every step with the flat observations, the actions about
 #: to be taken and, per environment, the episode it runs (``None`` once it has no more).
 StepHook = Callable[[np.ndarray, np.ndarray, list[int | None]], None]
 
 
-def _actor(
-    policy: Any, spec: ObservationSpec
-) -> tuple[Callable[[np.ndarray, np.ndarray | None], np.ndarray], str]:
-    """A function from flat observation rows (and the image rows, with image observations) to
-    action rows, and a name for the policy."""
+def _actor(policy: Any, spec: ObservationSpec) -> tuple[Actor, str]:
+    """The policy as an :data:`Actor`, and a name for it."""
     if isinstance(policy, ScriptedPolicy):
         native = policy._native
         return (lambda flat, _images: native.act(flat)), "scripted"
