@@ -119,6 +119,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<env::NativeSnapshot>()?;
     m.add_class::<vector::NativeVecEnv>()?;
     m.add_class::<policy::NativeScriptedPolicy>()?;
+    m.add_class::<policy::NativePolicyNetwork>()?;
     m.add_class::<evaluation::NativeEvaluation>()?;
     m.add_class::<render::NativeRenderer>()?;
     m.add_class::<render::NativeCameras>()?;

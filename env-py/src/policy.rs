@@ -1,8 +1,9 @@
-//! `ScriptedPolicy`: the scripted pick-and-place baseline of `panda-rapier-policies`,
-//! acting on whole batches of flat observations in one call.
+//! `ScriptedPolicy` (the scripted experts of `panda-rapier-policies`) and `PolicyNetwork` (a
+//! trained policy's CPU-independent forward pass), acting on whole batches of flat
+//! observations in one call.
 
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
-use panda_rapier_policies::ScriptedPolicy;
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use panda_rapier_policies::{Activation, NetworkWeights, OutputMap, PolicyNetwork, ScriptedPolicy};
 use pyo3::prelude::*;
 
 use crate::convert::contiguous;
@@ -84,5 +85,110 @@ impl NativeScriptedPolicy {
                     .map_err(|e| to_py(py, e))
             })
             .collect()
+    }
+}
+
+/// A trained policy's deterministic action in a fixed-order `f64` forward pass
+/// (`panda_rapier_policies::PolicyNetwork`: the same bits on every CPU).
+#[pyclass(module = "panda_rapier._native", name = "PolicyNetwork", frozen)]
+pub struct NativePolicyNetwork {
+    network: PolicyNetwork,
+}
+
+#[pymethods]
+impl NativePolicyNetwork {
+    /// `layers`: `(weight, bias)` float32 arrays per layer, torch's `outputs x inputs`
+    /// weights, the output layer last; `standardizer`: `(mean, scale, clip)` or `None`.
+    #[new]
+    #[pyo3(signature = (observation_dim, layers, activation, output, low, high, standardizer=None))]
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn new(
+        py: Python<'_>,
+        observation_dim: usize,
+        layers: Vec<(PyReadonlyArray2<'_, f32>, PyReadonlyArray1<'_, f32>)>,
+        activation: &str,
+        output: &str,
+        low: PyReadonlyArray1<'_, f32>,
+        high: PyReadonlyArray1<'_, f32>,
+        standardizer: Option<(PyReadonlyArray1<'_, f32>, PyReadonlyArray1<'_, f32>, f32)>,
+    ) -> PyResult<Self> {
+        let mut copied = Vec::with_capacity(layers.len());
+        for (index, (weight, bias)) in layers.iter().enumerate() {
+            let shape = weight.as_array().shape().to_vec();
+            if shape[0] != bias.as_array().len() {
+                return Err(invalid(
+                    py,
+                    ErrorClass::InvalidArgument,
+                    format!(
+                        "layer {index}: weight has {} rows but bias {} values",
+                        shape[0],
+                        bias.as_array().len()
+                    ),
+                ));
+            }
+            copied.push((
+                contiguous(py, weight, "weight")?.to_vec(),
+                contiguous(py, bias, "bias")?.to_vec(),
+            ));
+        }
+        let standardizer = match &standardizer {
+            None => None,
+            Some((mean, scale, clip)) => Some((
+                contiguous(py, mean, "mean")?.to_vec(),
+                contiguous(py, scale, "scale")?.to_vec(),
+                *clip,
+            )),
+        };
+        let weights = NetworkWeights {
+            observation_dim,
+            standardizer,
+            layers: copied,
+            activation: Some(Activation::parse(activation).map_err(|e| to_py(py, e))?),
+            output: Some(OutputMap::parse(output).map_err(|e| to_py(py, e))?),
+            low: contiguous(py, &low, "low")?.to_vec(),
+            high: contiguous(py, &high, "high")?.to_vec(),
+        };
+        let network = PolicyNetwork::new(weights).map_err(|e| to_py(py, e))?;
+        Ok(Self { network })
+    }
+
+    #[getter]
+    fn action_dim(&self) -> usize {
+        self.network.action_dim()
+    }
+
+    #[getter]
+    fn observation_dim(&self) -> usize {
+        self.network.observation_dim()
+    }
+
+    #[getter]
+    fn hidden_sizes(&self) -> Vec<usize> {
+        self.network.hidden_sizes()
+    }
+
+    /// Actions (`n x action_dim`, float32) for flat observations (`n x observation_dim`).
+    fn act<'py>(
+        &self,
+        py: Python<'py>,
+        observations: PyReadonlyArray2<'py, f32>,
+    ) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let shape = observations.as_array().shape().to_vec();
+        if shape[1] != self.network.observation_dim() {
+            return Err(invalid(
+                py,
+                ErrorClass::InvalidArgument,
+                format!(
+                    "observations must have shape (n, {}), got {shape:?}",
+                    self.network.observation_dim()
+                ),
+            ));
+        }
+        let rows = contiguous(py, &observations, "observations")?;
+        let n = shape[0];
+        let mut actions = vec![0.0f32; n * self.network.action_dim()];
+        let network = &self.network;
+        detached(py, || network.act(rows, &mut actions))?.map_err(|e| to_py(py, e))?;
+        PyArray1::from_vec(py, actions).reshape([n, self.network.action_dim()])
     }
 }

@@ -12,10 +12,15 @@
 //!   with a record per episode (return, length, success, steps to success and to placing),
 //!   driven step by step with any policy's actions; [`evaluate`] drives it with the scripted
 //!   policy. The Python package's `evaluate` and `panda-rapier eval` run the same evaluator.
+//! - [`PolicyNetwork`]: a trained multilayer-perceptron policy's deterministic action in a
+//!   fixed-order `f64` forward pass, the same bits on every CPU (what `panda-rapier eval` runs
+//!   a saved stable-baselines3 model with).
 
 pub mod evaluation;
+pub mod network;
 pub mod scripted;
 pub mod tutorial;
 
 pub use evaluation::{evaluate, EpisodeRecord, Evaluation, EvaluationReport};
+pub use network::{Activation, NetworkWeights, OutputMap, PolicyNetwork};
 pub use scripted::{Decision, Phase, ScriptedParams, ScriptedPolicy};

@@ -17,6 +17,7 @@ __all__ = [
     "PandaEnv",
     "PandaRapierError",
     "PandaVecEnv",
+    "PolicyNetwork",
     "Renderer",
     "ResetNeededError",
     "ScriptedPolicy",
@@ -155,6 +156,29 @@ class ScriptedPolicy:
     def observation_dim(self) -> int: ...
     def act(self, observations: _F32) -> _F32: ...
     def phases(self, observations: _F32) -> list[str]: ...
+
+@final
+class PolicyNetwork:
+    """A trained policy's deterministic action in a fixed-order float64 forward pass
+    (``panda_rapier_policies::PolicyNetwork``): the same bits on every CPU."""
+
+    def __new__(
+        cls,
+        observation_dim: int,
+        layers: list[tuple[_F32, _F32]],
+        activation: str,
+        output: str,
+        low: _F32,
+        high: _F32,
+        standardizer: tuple[_F32, _F32, float] | None = None,
+    ) -> PolicyNetwork: ...
+    @property
+    def action_dim(self) -> int: ...
+    @property
+    def observation_dim(self) -> int: ...
+    @property
+    def hidden_sizes(self) -> list[int]: ...
+    def act(self, observations: _F32) -> _F32: ...
 
 @final
 class Evaluation:

@@ -24,6 +24,7 @@ from typing import Any
 
 from . import __version__
 from .errors import PandaRapierError
+from .inference import INFERENCE_CHOICES
 from .registration import ENV_IDS, env_config
 
 DEFAULT_ENV_ID = "panda_rapier/PickAndPlace-v0"
@@ -107,6 +108,14 @@ def _parser() -> argparse.ArgumentParser:
     )
     evaluation.add_argument(
         "--algo", default=None, help="algorithm of the model file (default: read from the file)"
+    )
+    evaluation.add_argument(
+        "--inference",
+        choices=INFERENCE_CHOICES,
+        default="auto",
+        help="how a model's actions are computed: native (float64, the same on every CPU), "
+        "torch (the model's own float32 predict) or auto (native where the model allows, the "
+        "default)",
     )
     evaluation.add_argument("--json", type=Path, default=None, help="write the report here")
     evaluation.add_argument(
@@ -447,7 +456,8 @@ def _model_env(model_path: Path) -> tuple[str | None, dict[str, Any]]:
 def _run_eval(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from .evaluation import evaluate, load_sb3_model, model_observation, saved_spaces
+    from .evaluation import evaluate
+    from .inference import load_policy
     from .policy import ScriptedPolicy
 
     overrides: dict[str, Any] = {}
@@ -475,23 +485,12 @@ def _run_eval(args: argparse.Namespace) -> int:
         recorded_id, recorded = _model_env(model_path)
         env_id = args.env_id or recorded_id or DEFAULT_ENV_ID
         overrides = {**(recorded if env_id == recorded_id else {}), **overrides}
-        observation_space, action_space = saved_spaces(model_path)
-        if args.control is None and "control_mode" not in overrides:
-            # The action mode the model acts in, from its action space.
-            shape = getattr(action_space, "shape", None)
-            overrides["control_mode"] = "joints" if shape == (8,) else "ee"
-        from .sb3 import make_vec_env
-
-        observation = model_observation(observation_space)
-        # The model is loaded with an environment of the evaluation's spaces: a mismatch is
-        # reported by stable-baselines3, and hindsight replay buffers need one.
-        model = load_sb3_model(
-            model_path,
-            env=make_vec_env(env_id, n_envs=1, **overrides, **observation),
-            algo=args.algo,
+        policy, overrides, observation, fallback = load_policy(
+            model_path, env_id, overrides, algo=args.algo, inference=args.inference
         )
+        if fallback is not None:
+            print(f"inference: torch float32 (not the native network: {fallback})")
         config = env_config(env_id, **overrides)
-        policy = model
         label = str(model_path)
 
     recorder = None
@@ -533,6 +532,7 @@ def _run_eval(args: argparse.Namespace) -> int:
         f"(95 % CI {low:.3f}-{high:.3f}); cube placed in {summary['placed_rate']:.3f}"
     )
     print(f"  mean return         {summary['mean_return']:.3f} +- {summary['std_return']:.3f}")
+    print(f"  inference           {report.inference}")
     print(f"  mean episode length {summary['mean_length']:.1f} steps")
     print(
         "  steps to success    "

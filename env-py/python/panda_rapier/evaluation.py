@@ -14,12 +14,25 @@ evaluation of ``m`` episodes. Once every episode has been handed out, environmen
 episode ends are idle: the vector env still steps them, unrecorded, until the last episode
 ends. ``env_steps`` counts every environment step simulated, idle ones included (what
 ``env_steps_per_s`` divides), ``idle_env_steps`` the idle ones among them.
+
+What an evaluation reproduces, where: every report records its ``inference`` (how actions were
+computed) and its ``environment`` (:func:`evaluation_environment`: package version, CPU
+architecture, C library, and for torch inference torch's version and the CPU capability it
+uses, stable-baselines3's and numpy's versions). The physics, the scripted experts and
+:class:`~panda_rapier.inference.NetworkPolicy` (what ``panda-rapier eval`` acts out a saved
+model with) do the same arithmetic on every CPU of an architecture, so their episodes repeat
+bit for bit wherever the fields :data:`OUTCOME_FIELDS` names for that inference match. A torch
+model's float32 actions depend on the kernels torch picks for the CPU: its episodes repeat only
+on the same capability and versions. Elsewhere an evaluation promises the same success and
+placed rates within their statistical interval; :func:`check_reproduction` tests a report
+against a recorded one either way.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import platform
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field
@@ -37,9 +50,13 @@ if TYPE_CHECKING:
     from .video import VideoRecorder
 
 __all__ = [
+    "OUTCOME_FIELDS",
     "EpisodeRecord",
     "EvaluationReport",
+    "ReproductionCheck",
+    "check_reproduction",
     "evaluate",
+    "evaluation_environment",
     "load_sb3_model",
     "model_observation",
     "saved_spaces",
@@ -85,6 +102,12 @@ class EvaluationReport:
     episodes: list[EpisodeRecord] = field(default_factory=list)
     #: Steps of idle environments (no episode left to run) among ``env_steps``.
     idle_env_steps: int = 0
+    #: How the actions were computed: ``scripted``, ``native-f64``
+    #: (:class:`~panda_rapier.inference.NetworkPolicy`), ``torch-f32`` (a stable-baselines3
+    #: model's ``predict``) or ``python`` (any other function).
+    inference: str = "python"
+    #: What the episodes' outcomes depend on (:func:`evaluation_environment`).
+    environment: dict[str, str] = field(default_factory=dict)
 
     @property
     def num_episodes(self) -> int:
@@ -158,6 +181,8 @@ class EvaluationReport:
             "idle_env_steps": self.idle_env_steps,
             "wall_time_s": self.wall_time_s,
             "env_steps_per_s": self.env_steps_per_s,
+            "inference": self.inference,
+            "environment": self.environment,
         }
 
     def to_json(self) -> str:
@@ -283,17 +308,22 @@ Actor = Callable[[np.ndarray, np.ndarray | None], np.ndarray]
 StepHook = Callable[[np.ndarray, np.ndarray, list[int | None]], None]
 
 
-def _actor(policy: Any, spec: ObservationSpec) -> tuple[Actor, str]:
-    """The policy as an :data:`Actor`, and a name for it."""
+def _actor(policy: Any, spec: ObservationSpec) -> tuple[Actor, str, str]:
+    """The policy as an :data:`Actor`, a name for it and its inference."""
+    from .inference import NATIVE, TORCH, NetworkPolicy
+
     if isinstance(policy, ScriptedPolicy):
         native = policy._native
-        return (lambda flat, _images: native.act(flat)), "scripted"
+        return (lambda flat, _images: native.act(flat)), "scripted", "scripted"
+    if isinstance(policy, NetworkPolicy):
+        if spec.has_images:
+            raise InvalidArgumentError("a NetworkPolicy acts on state observations only")
+        return (lambda flat, _images: policy.act(flat)), repr(policy), NATIVE
     predict = getattr(policy, "predict", None)
     if not callable(predict):
         if callable(policy):  # already a function of flat observation rows
-            return (lambda flat, _images: policy(flat)), getattr(
-                policy, "__name__", type(policy).__name__
-            )
+            name = getattr(policy, "__name__", type(policy).__name__)
+            return (lambda flat, _images: policy(flat)), name, "python"
         raise InvalidArgumentError(
             f"policy must have an SB3-style predict(obs, deterministic=True) or be a function "
             f"of flat observation rows, got {type(policy).__name__}"
@@ -303,7 +333,8 @@ def _actor(policy: Any, spec: ObservationSpec) -> tuple[Actor, str]:
         actions, _ = predict(spec.assemble(flat, images), deterministic=True)
         return np.asarray(actions, dtype=np.float32).reshape(flat.shape[0], -1)
 
-    return act, type(policy).__name__
+    inference = TORCH if hasattr(policy, "policy") and hasattr(policy, "device") else "python"
+    return act, type(policy).__name__, inference
 
 
 def evaluate(
@@ -347,7 +378,7 @@ def evaluate(
         raise ConfigError("evaluation needs a time limit: max_episode_steps must not be None")
     config_json = _common.config_json(config)
     spec = observation_spec(_common.Schema.of(config_json), obs_mode, image_size, cameras)
-    act, name = _actor(policy, spec)
+    act, name, inference = _actor(policy, spec)
     evaluation = _native.Evaluation(
         config_json, episodes, min(num_envs, episodes), num_threads, seed
     )
@@ -385,4 +416,143 @@ def evaluate(
         wall_time_s=time.perf_counter() - started,
         episodes=[EpisodeRecord(**record) for record in native["episodes"]],
         idle_env_steps=native["idle_env_steps"],
+        inference=inference,
+        environment=evaluation_environment(inference),
     )
+
+
+#: The fields of :func:`evaluation_environment` an inference's outcomes depend on: where they
+#: all match, the same evaluation gives the same episodes, bit for bit.
+OUTCOME_FIELDS: dict[str, tuple[str, ...]] = {
+    "scripted": ("inference", "panda_rapier", "machine", "libc"),
+    "native-f64": ("inference", "panda_rapier", "machine", "libc"),
+    "torch-f32": (
+        "inference", "panda_rapier", "machine", "libc", "cpu", "cpu_flags", "torch",
+        "torch_cpu_capability", "stable_baselines3", "numpy",
+    ),
+}  # fmt: skip
+
+
+def evaluation_environment(inference: str) -> dict[str, str]:
+    """What an evaluation's outcomes can depend on, as strings: the ``inference``, the package
+    version, the CPU architecture (``machine``) and C library (``libc``: the physics calls its
+    maths routines), numpy's version and, where torch is imported, its version, the CPU
+    capability its kernels use (``ATEN_CPU_CAPABILITY`` can lower it) and stable-baselines3's
+    version, and the CPU's model and vector extensions (``cpu``, ``cpu_flags``: the BLAS under
+    torch picks its matrix kernels by them, whatever ``ATEN_CPU_CAPABILITY`` says).
+    :data:`OUTCOME_FIELDS` says which of them matter for which inference."""
+    import sys
+
+    libc = "-".join(x for x in platform.libc_ver() if x) or "unknown"
+    cpu, flags = _cpu()
+    environment = {
+        "inference": inference,
+        "panda_rapier": _native.__version__,
+        "machine": platform.machine(),
+        "libc": libc,
+        "cpu": cpu,
+        "cpu_flags": flags,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+    }
+    torch = sys.modules.get("torch")
+    if torch is not None:
+        environment["torch"] = str(torch.__version__)
+        environment["torch_cpu_capability"] = str(torch.backends.cpu.get_cpu_capability())
+    sb3 = sys.modules.get("stable_baselines3")
+    if sb3 is not None:
+        environment["stable_baselines3"] = str(sb3.__version__)
+    return environment
+
+
+#: Vector extensions that change which kernels a BLAS runs.
+_VECTOR_FLAGS = ("avx", "avx2", "fma", "avx512f", "avx512_bf16", "avx512_vnni", "amx_tile",
+                 "asimd", "sve", "sve2")  # fmt: skip
+
+
+def _cpu() -> tuple[str, str]:
+    """The CPU's model name and its vector extensions among :data:`_VECTOR_FLAGS`, from
+    ``/proc/cpuinfo`` (``platform.processor()`` elsewhere)."""
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return platform.processor() or "unknown", ""
+    model, flags = "unknown", set[str]()
+    for line in text.splitlines():
+        key, _, value = line.partition(":")
+        key = key.strip().lower()
+        if key in ("model name", "cpu model") and model == "unknown":
+            model = value.strip()
+        elif key in ("flags", "features") and not flags:
+            flags = set(value.split())
+    return model, " ".join(f for f in _VECTOR_FLAGS if f in flags)
+
+
+@dataclass
+class ReproductionCheck:
+    """The verdict of :func:`check_reproduction`."""
+
+    #: ``per-episode`` (the environments match: every episode must repeat) or ``statistical``.
+    kind: str
+    passed: bool
+    #: What was compared and what differed.
+    details: str
+    #: The fields of the environment that differ (empty for ``per-episode``).
+    differing: dict[str, tuple[str | None, str | None]] = field(default_factory=dict)
+
+
+#: One-sided z of :func:`check_reproduction`'s statistical test (false alarm rate 0.1 %).
+REPRODUCTION_Z = 3.09
+
+
+def check_reproduction(
+    recorded: Mapping[str, Any], report: EvaluationReport, z: float = REPRODUCTION_Z
+) -> ReproductionCheck:
+    """Compares a new evaluation with a recorded one of the same policy, environment and
+    seeds (``recorded`` as ``panda-rapier models-table`` writes it to ``evaluations.json``:
+    a summary with ``environment``, ``success_by_episode`` and ``placed_by_episode``; the
+    report may cover fewer episodes, the first ones).
+
+    Where every field :data:`OUTCOME_FIELDS` names for the recorded inference matches, the
+    episodes must repeat exactly. Elsewhere, a one-sided two-proportion z-test (pooled) of the
+    success rate and of the placed rate: the check fails when the new rate is below the
+    recorded one by more than ``z`` standard errors (``z = 3.09``: one false alarm in 1,000 per
+    rate). With 1,000 recorded and 300 new episodes at a rate of 0.95, a true drop to 0.85
+    fails it 98 % of the time."""
+    recorded_env = dict(recorded.get("environment") or {})
+    inference = str(recorded_env.get("inference", "python"))
+    fields = OUTCOME_FIELDS.get(inference, tuple(sorted(set(recorded_env) | {"inference"})))
+    current = {**report.environment, "inference": report.inference}
+    differing = {
+        k: (recorded_env.get(k), current.get(k))
+        for k in fields
+        if recorded_env.get(k) != current.get(k)
+    }
+    success = "".join("1" if e.success else "0" for e in report.episodes)
+    placed = "".join("1" if e.placed else "0" for e in report.episodes)
+    n = len(success)
+    if not differing:
+        want_success = str(recorded["success_by_episode"])[:n]
+        want_placed = str(recorded["placed_by_episode"])[:n]
+        bad = [i for i in range(n) if success[i] != want_success[i] or placed[i] != want_placed[i]]
+        return ReproductionCheck(
+            "per-episode",
+            not bad and len(want_success) == n,
+            f"{n} episodes compared, {len(bad)} differ"
+            + (f" (first: episode {bad[0]})" if bad else ""),
+        )
+    lines = []
+    passed = True
+    for what, now in (("success", success), ("placed", placed)):
+        was = str(recorded[f"{what}_by_episode"])
+        x1, n1, x2, n2 = was.count("1"), len(was), now.count("1"), n
+        pooled = (x1 + x2) / (n1 + n2)
+        se = math.sqrt(pooled * (1 - pooled) * (1 / n1 + 1 / n2))
+        score = 0.0 if se == 0 else (x1 / n1 - x2 / n2) / se
+        ok = score <= z
+        passed &= ok
+        lines.append(
+            f"{what} {x2 / n2:.3f} on {n2} episodes vs recorded {x1 / n1:.3f} on {n1}: "
+            f"z = {score:.2f} ({'ok' if ok else f'a drop beyond {z} standard errors'})"
+        )
+    return ReproductionCheck("statistical", passed, "; ".join(lines), differing)

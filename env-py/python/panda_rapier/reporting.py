@@ -173,7 +173,10 @@ def models_table(
         "development machine, evaluations excluded; env steps include the expert's "
         "demonstrations and every rollout the learner drove. Success: the cube within 5 cm of "
         "the goal at the last step (95 % Wilson interval); placed: also released and at rest "
-        "on the platform.\n\n"
+        "on the platform. Actions come from the native float64 network (the same bits on "
+        "every CPU): an evaluation repeats these episodes exactly wherever the package "
+        "version, CPU architecture and C library recorded in `evaluations.json` match, and "
+        "these rates within their interval elsewhere (`docs/reproducibility.md`).\n\n"
         "| model | algorithm | env id | options | env steps | wall time (min) "
         "| success (95 % CI) | placed |\n|---|---|---|---|---|---|---|---|\n"
     )

@@ -1,0 +1,377 @@
+"""Trained policies acted out the same way on every CPU: :class:`NetworkPolicy`.
+
+torch evaluates a network in float32 with matrix kernels it picks by the CPU's vector width
+(AVX-512, AVX2 or none), each summing in its own order, so the same saved model gives slightly
+different actions on different machines, and now and then a different episode outcome.
+:class:`NetworkPolicy` computes a stable-baselines3 policy's deterministic action with the
+native ``PolicyNetwork`` instead: float64, one fixed order of operations, portable ``tanh``,
+the same bits on every CPU (``panda_rapier_policies::network``). ``panda-rapier eval`` uses
+it for every model it can (``--inference torch`` asks for torch instead).
+
+A model file is read by data alone: the ``data`` entry as JSON (only its plain fields; the
+pickled ones are never unpickled) and the weights with ``torch.load(..., weights_only=True)``.
+Supported: PPO and A2C (``MlpPolicy`` / ``MultiInputPolicy``), SAC and TQC (their actor), TD3
+and DDPG, with ReLU or Tanh hidden layers, on state observations, with the default flattening
+features extractor or :class:`~panda_rapier.normalization.NormalizedFlatten`. Anything else
+(image encoders, gSDE on SAC, other activations) raises :class:`UnsupportedModelError`, and
+``panda-rapier eval`` falls back to loading the model with stable-baselines3.
+"""
+
+from __future__ import annotations
+
+import ast
+import io
+import json
+import re
+import zipfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import _native
+from .errors import InvalidArgumentError
+
+__all__ = [
+    "NATIVE",
+    "TORCH",
+    "NetworkPolicy",
+    "UnsupportedModelError",
+]
+
+#: The inference of :class:`NetworkPolicy`: float64, fixed order, CPU-independent.
+NATIVE = "native-f64"
+#: A stable-baselines3 model's own ``predict``: torch float32, CPU-dependent kernels.
+TORCH = "torch-f32"
+
+#: Default hidden activations of stable-baselines3's policies, by family.
+_DEFAULT_ACTIVATION = {"actor-critic": "tanh", "sac": "relu", "td3": "relu"}
+_ACTIVATIONS = {"ReLU": "relu", "Tanh": "tanh"}
+#: Policy modules (``data["policy_class"]["__module__"]``) and the family each belongs to.
+_FAMILIES = {
+    "stable_baselines3.common.policies": "actor-critic",
+    "stable_baselines3.sac.policies": "sac",
+    "sb3_contrib.tqc.policies": "sac",
+    "stable_baselines3.td3.policies": "td3",
+}
+
+#: ``policy_kwargs`` that leave the deterministic action's computation as built here (the
+#: others change the network: refused rather than guessed).
+_KNOWN_POLICY_KWARGS = {
+    "net_arch", "activation_fn", "features_extractor_class", "features_extractor_kwargs",
+    "share_features_extractor", "ortho_init", "log_std_init", "optimizer_class",
+    "optimizer_kwargs", "normalize_images", "n_critics", "n_quantiles", "squash_output",
+    # gSDE's: they change only the exploration noise of PPO and A2C (SAC's is refused).
+    "use_sde", "use_expln", "full_std", "clip_mean",
+}  # fmt: skip
+
+
+class UnsupportedModelError(InvalidArgumentError):
+    """A saved model that :class:`NetworkPolicy` cannot act out (it says why); stable-baselines3
+    itself may still load it."""
+
+
+class NetworkPolicy:
+    """A stable-baselines3 policy's deterministic action, computed by the native
+    ``PolicyNetwork`` (float64, fixed order: the same bits on every CPU).
+
+    Build it with :meth:`from_zip` (a saved model, read without unpickling anything) or
+    :meth:`from_sb3` (a model in memory). :meth:`act` maps flat observation rows (Gymnasium's
+    ``spaces.flatten`` order of the goal dict: ``achieved_goal``, ``desired_goal``,
+    ``observation``) to action rows; :meth:`predict` takes the dict, as stable-baselines3's
+    does, so :func:`~panda_rapier.evaluation.evaluate` and user code can use either.
+    """
+
+    inference = NATIVE
+
+    def __init__(self, network: _native.PolicyNetwork, algorithm: str, source: str) -> None:
+        self.network = network
+        #: ``actor-critic`` (PPO, A2C), ``sac`` (SAC, TQC) or ``td3`` (TD3, DDPG).
+        self.algorithm = algorithm
+        #: Where the weights came from.
+        self.source = source
+
+    @property
+    def observation_dim(self) -> int:
+        return self.network.observation_dim
+
+    @property
+    def action_dim(self) -> int:
+        return self.network.action_dim
+
+    def act(self, observations: np.ndarray) -> np.ndarray:
+        """Actions (``n x action_dim`` float32) for flat observations (``n x
+        observation_dim``, finite)."""
+        rows = np.ascontiguousarray(observations, dtype=np.float32)
+        if rows.ndim == 1:
+            return self.network.act(rows[None, :])[0]
+        if rows.ndim != 2:
+            raise InvalidArgumentError(
+                f"observations must be rows of {self.observation_dim} values, got shape "
+                f"{rows.shape}"
+            )
+        return self.network.act(rows)
+
+    def predict(
+        self,
+        observation: Mapping[str, Any] | np.ndarray,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> tuple[np.ndarray, None]:
+        """stable-baselines3's ``predict``: the deterministic action for a goal dict (keys
+        flattened in sorted order) or a flat array; ``deterministic=False`` is refused (the
+        network holds no noise)."""
+        if not deterministic:
+            raise InvalidArgumentError("NetworkPolicy acts deterministically only")
+        if isinstance(observation, Mapping):
+            parts = [np.asarray(observation[k], dtype=np.float32) for k in sorted(observation)]
+            single = parts[0].ndim == 1
+            rows = np.concatenate([p.reshape(1 if single else p.shape[0], -1) for p in parts], 1)
+            actions = self.act(rows)
+            return (actions[0] if single else actions), None
+        return self.act(np.asarray(observation)), None
+
+    def __repr__(self) -> str:
+        return (
+            f"NetworkPolicy({self.algorithm}, {self.observation_dim} -> "
+            f"{self.network.hidden_sizes} -> {self.action_dim}, from {self.source})"
+        )
+
+    @classmethod
+    def from_zip(cls, path: str | Path) -> NetworkPolicy:
+        """Reads a stable-baselines3 model file by data alone (nothing in it is unpickled or
+        run); :class:`UnsupportedModelError` says why a file cannot be acted out natively."""
+        path = Path(path)
+        try:
+            with zipfile.ZipFile(path) as archive:
+                data = json.loads(archive.read("data"))
+                weights = archive.read("policy.pth")
+        except (OSError, KeyError, ValueError, zipfile.BadZipFile) as error:
+            raise InvalidArgumentError(
+                f"{path} is not a stable-baselines3 model file: {error}"
+            ) from error
+        module = str(data.get("policy_class", {}).get("__module__", ""))
+        family = _FAMILIES.get(module)
+        if family is None:
+            raise UnsupportedModelError(f"policy class from {module or '?'}")
+        kwargs = data.get("policy_kwargs") or {}
+        if not isinstance(kwargs, Mapping):
+            raise UnsupportedModelError("unreadable policy_kwargs")
+        unknown = set(kwargs) - _KNOWN_POLICY_KWARGS - {":type:", ":serialized:"}
+        if unknown:
+            raise UnsupportedModelError(f"policy_kwargs {sorted(unknown)}")
+        if str(kwargs.get("squash_output", "False")) != "False":
+            raise UnsupportedModelError("squash_output")
+        activation = _activation_of(kwargs.get("activation_fn"), family)
+        extractor = _class_name(kwargs.get("features_extractor_class"))
+        clip = _clip_of(kwargs.get("features_extractor_kwargs"))
+        if family == "sac" and (data.get("use_sde") or str(kwargs.get("use_sde")) == "True"):
+            raise UnsupportedModelError("gSDE exploration (use_sde) in a SAC/TQC actor")
+        space = data.get("observation_space") or {}
+        if "uint8" in str(space.get("spaces", "")) + str(space.get("dtype", "")):
+            raise UnsupportedModelError("image observations (a CNN encoder)")
+        low, high = _bounds(data.get("action_space") or {})
+        state = _load_weights(weights)
+        network = _build(state, family, activation, extractor, clip, low, high)
+        return cls(network, family, str(path))
+
+    @classmethod
+    def from_sb3(cls, model: Any) -> NetworkPolicy:
+        """The same network as a stable-baselines3 model in memory (its policy's weights, read
+        once: later training does not change this copy)."""
+        policy = model.policy
+        module = type(policy).__module__
+        family = _FAMILIES.get(module)
+        if family is None:
+            raise UnsupportedModelError(f"policy class {type(policy).__name__} from {module}")
+        if family == "sac" and getattr(model, "use_sde", False):
+            raise UnsupportedModelError("gSDE exploration (use_sde) in a SAC/TQC actor")
+        kwargs = getattr(model, "policy_kwargs", {}) or {}
+        if set(kwargs) - _KNOWN_POLICY_KWARGS or kwargs.get("squash_output"):
+            raise UnsupportedModelError(f"policy_kwargs {sorted(kwargs)}")
+        activation = _activation_of(kwargs.get("activation_fn"), family)
+        extractor = _class_name(kwargs.get("features_extractor_class"))
+        clip = float((kwargs.get("features_extractor_kwargs") or {}).get("clip", 10.0))
+        space = model.action_space
+        state = {k: v.detach().cpu() for k, v in policy.state_dict().items()}
+        low, high = np.asarray(space.low, np.float32), np.asarray(space.high, np.float32)
+        network = _build(state, family, activation, extractor, clip, low, high)
+        return cls(network, family, type(model).__name__)
+
+
+def _class_name(value: Any) -> str | None:
+    """``Foo`` of ``"<class 'a.b.Foo'>"``, of a class, or ``None``."""
+    if value is None:
+        return None
+    if isinstance(value, type):
+        return value.__name__
+    match = re.fullmatch(r"<class '(?:[\w.]+\.)?(\w+)'>", str(value))
+    if match is None:
+        raise UnsupportedModelError(f"unreadable class {value!r}")
+    return match.group(1)
+
+
+def _activation_of(value: Any, family: str) -> str:
+    name = _class_name(value)
+    if name is None:
+        return _DEFAULT_ACTIVATION[family]
+    if name not in _ACTIVATIONS:
+        raise UnsupportedModelError(f"activation {name} (only ReLU and Tanh)")
+    return _ACTIVATIONS[name]
+
+
+def _clip_of(value: Any) -> float:
+    """The ``clip`` of ``features_extractor_kwargs`` (saved as its repr: read as a literal)."""
+    from .normalization import CLIP
+
+    if value is None:
+        return CLIP
+    try:
+        kwargs = ast.literal_eval(str(value)) if not isinstance(value, Mapping) else value
+    except (ValueError, SyntaxError) as error:
+        raise UnsupportedModelError(f"unreadable features_extractor_kwargs {value!r}") from error
+    if not isinstance(kwargs, Mapping) or set(kwargs) - {"clip"}:
+        raise UnsupportedModelError(f"features_extractor_kwargs {value!r}")
+    return float(kwargs.get("clip", CLIP))
+
+
+def _bounds(space: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    """An action ``Box``'s ``low`` and ``high``, from their printed arrays."""
+    if "gymnasium.spaces.box.Box" not in str(space.get(":type:", "")):
+        raise UnsupportedModelError("the action space is not a Box")
+    try:
+        bounds = [
+            np.array(str(space[k]).strip("[]").split(), dtype=np.float32) for k in ("low", "high")
+        ]
+    except (KeyError, ValueError) as error:
+        raise UnsupportedModelError(f"unreadable action bounds: {error}") from error
+    return bounds[0], bounds[1]
+
+
+def _load_weights(raw: bytes) -> dict[str, Any]:
+    try:
+        import torch
+    except ImportError as error:
+        raise ImportError(
+            "reading a model's weights needs torch: pip install 'panda-rapier[train]'"
+        ) from error
+    try:
+        state = torch.load(io.BytesIO(raw), map_location="cpu", weights_only=True)
+    except Exception as error:  # torch raises several unrelated types for a bad file
+        raise InvalidArgumentError(f"unreadable policy weights: {error}") from error
+    if not isinstance(state, Mapping):
+        raise InvalidArgumentError("policy.pth holds no state dict")
+    return dict(state)
+
+
+def _linear_layers(state: Mapping[str, Any], prefix: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The ``Linear`` layers of the ``nn.Sequential`` at ``prefix``, in order."""
+    indices = sorted(
+        int(m.group(1))
+        for key in state
+        if (m := re.fullmatch(re.escape(prefix) + r"\.(\d+)\.weight", key)) is not None
+    )
+    return [_linear(state, f"{prefix}.{i}") for i in indices]
+
+
+def _linear(state: Mapping[str, Any], prefix: str) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        weight, bias = state[f"{prefix}.weight"], state[f"{prefix}.bias"]
+    except KeyError as error:
+        raise UnsupportedModelError(f"no layer {prefix} in the weights") from error
+    return _array(weight, 2), _array(bias, 1)
+
+
+def _array(tensor: Any, ndim: int) -> np.ndarray:
+    array = np.ascontiguousarray(tensor.numpy() if hasattr(tensor, "numpy") else tensor)
+    if array.ndim != ndim or array.dtype != np.float32:
+        raise UnsupportedModelError(f"a float32 tensor of {ndim} dimensions, got {array.dtype}")
+    return array
+
+
+def _build(
+    state: Mapping[str, Any],
+    family: str,
+    activation: str,
+    extractor: str | None,
+    clip: float,
+    low: np.ndarray,
+    high: np.ndarray,
+) -> _native.PolicyNetwork:
+    extractors: tuple[str, ...]
+    if family == "actor-critic":
+        extractors = ("pi_features_extractor", "features_extractor")
+        layers = [*_linear_layers(state, "mlp_extractor.policy_net"), _linear(state, "action_net")]
+        output = "clip"
+    elif family == "sac":
+        extractors = ("actor.features_extractor",)
+        layers = [*_linear_layers(state, "actor.latent_pi"), _linear(state, "actor.mu")]
+        output = "squash"
+    else:  # td3: mu ends with its output layer and a Tanh
+        extractors = ("actor.features_extractor",)
+        layers = _linear_layers(state, "actor.mu")
+        output = "squash"
+    if not layers:
+        raise UnsupportedModelError("no layers found in the weights")
+    standardizer = None
+    if extractor == "NormalizedFlatten":
+        prefix = next((p for p in extractors if f"{p}.mean" in state), None)
+        if prefix is None:
+            raise UnsupportedModelError("NormalizedFlatten without its mean and scale")
+        mean, scale = (_array(state[f"{prefix}.{k}"], 1) for k in ("mean", "scale"))
+        standardizer = (mean, scale, float(clip))
+    elif extractor not in (None, "CombinedExtractor", "FlattenExtractor"):
+        raise UnsupportedModelError(f"features extractor {extractor}")
+    observation_dim = int(layers[0][0].shape[1])
+    return _native.PolicyNetwork(
+        observation_dim, layers, activation, output, low, high, standardizer
+    )
+
+
+#: ``panda-rapier eval --inference`` choices.
+INFERENCE_CHOICES = ("auto", "native", "torch")
+
+
+def load_policy(
+    path: str | Path,
+    env_id: str,
+    overrides: Mapping[str, Any],
+    algo: str | None = None,
+    inference: str = "auto",
+) -> tuple[Any, dict[str, Any], dict[str, Any], str | None]:
+    """The policy of a saved model as ``panda-rapier eval`` runs it: a :class:`NetworkPolicy`
+    where the file allows (``inference="auto"`` or ``"native"``; ``"native"`` raises
+    :class:`UnsupportedModelError` otherwise), else the stable-baselines3 model (``"torch"``,
+    or the fallback). Returns the policy, ``overrides`` with the control mode the model acts
+    in (unless they set one), the image options of its observation and, for a fallback, why
+    the native network could not be used."""
+    if inference not in INFERENCE_CHOICES:
+        raise InvalidArgumentError(
+            f"inference must be one of {INFERENCE_CHOICES}, got {inference!r}"
+        )
+    overrides = dict(overrides)
+    fallback = None
+    if inference != "torch":
+        try:
+            policy = NetworkPolicy.from_zip(path)
+        except UnsupportedModelError as why:
+            if inference == "native":
+                raise
+            fallback = str(why)
+        else:
+            overrides.setdefault("control_mode", "joints" if policy.action_dim == 8 else "ee")
+            return policy, overrides, {}, None
+    from .evaluation import load_sb3_model, model_observation, saved_spaces
+    from .sb3 import make_vec_env
+
+    observation_space, action_space = saved_spaces(path)
+    # The action mode the model acts in, from its action space.
+    shape = getattr(action_space, "shape", None)
+    overrides.setdefault("control_mode", "joints" if shape == (8,) else "ee")
+    observation = model_observation(observation_space)
+    # Loaded with an environment of the evaluation's spaces: a mismatch is reported by
+    # stable-baselines3, and hindsight replay buffers need one.
+    env = make_vec_env(env_id, n_envs=1, **overrides, **observation)
+    return load_sb3_model(path, env=env, algo=algo), overrides, observation, fallback

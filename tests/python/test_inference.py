@@ -1,0 +1,277 @@
+"""The native policy network (panda_rapier.inference): the same actions as torch up to float
+rounding, the same bits on every CPU capability, model files read without unpickling, and the
+reproduction check that compares evaluations across machines."""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import pickle
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+import torch as th
+from stable_baselines3 import PPO, SAC, TD3
+
+from panda_rapier import InvalidArgumentError
+from panda_rapier.cli import main
+from panda_rapier.evaluation import (
+    EpisodeRecord,
+    EvaluationReport,
+    check_reproduction,
+    evaluate,
+    evaluation_environment,
+)
+from panda_rapier.imitation import collect
+from panda_rapier.inference import (
+    NATIVE,
+    TORCH,
+    NetworkPolicy,
+    UnsupportedModelError,
+    load_policy,
+)
+from panda_rapier.normalization import NormalizedFlatten, fit_normalizers
+from panda_rapier.registration import env_config
+from panda_rapier.sb3 import make_vec_env
+from panda_rapier.training import read_run_info
+
+th.set_num_threads(1)
+
+MODELS = Path(__file__).resolve().parents[2] / "models"
+SHIPPED = sorted(p.name for p in MODELS.glob("*.zip"))
+
+
+def _states(name: str) -> np.ndarray:
+    """Flat observations a model meets: its environment's expert episodes."""
+    run = read_run_info(MODELS / name)
+    assert run is not None
+    demos, _ = collect(env_config(run["env_id"], **run["env_kwargs"]), 4, first_seed=123)
+    return demos.observations
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_native_network_is_the_torch_policy_up_to_rounding(name: str) -> None:
+    """The native float64 actions equal torch's float64 forward pass of the same weights to
+    float32 rounding, and torch's float32 actions to its float32 error."""
+    model = PPO.load(MODELS / name, device="cpu")
+    native = NetworkPolicy.from_zip(MODELS / name)
+    assert native.algorithm == "actor-critic" and native.inference == NATIVE
+    rows = _states(name)
+    actions = native.act(rows)
+    assert actions.dtype == np.float32 and actions.shape == (len(rows), native.action_dim)
+    obs = {k: v for k, v in zip(("achieved_goal", "desired_goal", "observation"),
+                                np.split(rows, [3, 6], axis=1), strict=True)}  # fmt: skip
+    single, _ = model.predict(obs, deterministic=True)
+    np.testing.assert_allclose(actions, single, atol=1e-4)
+    # One policy, two ways in: a model in memory gives the same bits as its file.
+    np.testing.assert_array_equal(NetworkPolicy.from_sb3(model).act(rows), actions)
+    policy = model.policy.double()
+    with th.no_grad():
+        tensors = {k: th.as_tensor(v, dtype=th.float64) for k, v in obs.items()}
+        double = policy._predict(tensors, deterministic=True).numpy()
+    np.testing.assert_allclose(actions, np.clip(double, -1, 1), rtol=1e-6, atol=1e-7)
+    # predict takes the goal dict, batched or single, like stable-baselines3's.
+    np.testing.assert_array_equal(native.predict(obs)[0], actions)
+    np.testing.assert_array_equal(native.predict({k: v[0] for k, v in obs.items()})[0], actions[0])
+
+
+_DIGEST = r"""
+import hashlib, sys
+import numpy as np, torch
+torch.set_num_threads(1)
+from panda_rapier.inference import NetworkPolicy
+from stable_baselines3 import PPO
+path, rows = sys.argv[1], np.load(sys.argv[2])
+native = NetworkPolicy.from_zip(path).act(rows)
+torch_actions = PPO.load(path, device="cpu").predict(
+    {"achieved_goal": rows[:, :3], "desired_goal": rows[:, 3:6], "observation": rows[:, 6:]},
+    deterministic=True)[0]
+print(hashlib.sha256(native.tobytes()).hexdigest(), torch.backends.cpu.get_cpu_capability(),
+      hashlib.sha256(np.asarray(torch_actions, np.float32).tobytes()).hexdigest())
+"""
+
+
+def test_native_actions_do_not_depend_on_torch_cpu_capability(tmp_path: Path) -> None:
+    """Under every kernel path torch offers here (ATEN_CPU_CAPABILITY), the native actions are
+    the same bits; torch's own may differ (not asserted: it depends on the CPU)."""
+    name = "ppo-PickAndPlaceDense-v0.zip"
+    np.save(tmp_path / "rows.npy", _states(name))
+    seen = {}
+    for capability in ("default", "avx2", None):
+        env = {k: v for k, v in os.environ.items() if k != "ATEN_CPU_CAPABILITY"}
+        if capability is not None:
+            env["ATEN_CPU_CAPABILITY"] = capability
+        out = subprocess.run(
+            [sys.executable, "-c", _DIGEST, str(MODELS / name), str(tmp_path / "rows.npy")],
+            env=env, capture_output=True, text=True, check=True,
+        )  # fmt: skip
+        native, used, torch_digest = out.stdout.split()
+        seen[capability] = (native, used, torch_digest)
+    assert len({native for native, _, _ in seen.values()}) == 1, seen
+    assert seen["default"][1] == "DEFAULT", seen
+
+
+def _tiny(algorithm, **kwargs):
+    env = make_vec_env("panda_rapier/PickAndPlace-v0", n_envs=1, arm="kinematic")
+    return algorithm("MultiInputPolicy", env, seed=0, device="cpu", **kwargs)
+
+
+@pytest.mark.parametrize(
+    ("algorithm", "kwargs", "family"),
+    [
+        (SAC, {"buffer_size": 64, "policy_kwargs": {"net_arch": [32, 16]}}, "sac"),
+        (TD3, {"buffer_size": 64, "policy_kwargs": {"net_arch": [32]}}, "td3"),
+        (PPO, {"n_steps": 8, "batch_size": 8, "policy_kwargs": {
+            "features_extractor_class": NormalizedFlatten, "net_arch": [24, 24],
+            "activation_fn": th.nn.Tanh, "share_features_extractor": False,
+            "features_extractor_kwargs": {"clip": 3.0}}}, "actor-critic"),
+    ],
+)  # fmt: skip
+def test_other_algorithms_and_options(tmp_path: Path, algorithm, kwargs, family) -> None:
+    model = _tiny(algorithm, **kwargs)
+    rows = _states("bc-dagger-PickAndPlace-v0.zip")
+    if family == "actor-critic":
+        fit_normalizers(model.policy, rows)
+    model.save(tmp_path / "m.zip")
+    native = NetworkPolicy.from_zip(tmp_path / "m.zip")
+    assert native.algorithm == family
+    obs = {k: v for k, v in zip(("achieved_goal", "desired_goal", "observation"),
+                                np.split(rows, [3, 6], axis=1), strict=True)}  # fmt: skip
+    expected, _ = model.predict(obs, deterministic=True)
+    np.testing.assert_allclose(native.act(rows), expected, atol=1e-5)
+    np.testing.assert_array_equal(NetworkPolicy.from_sb3(model).act(rows), native.act(rows))
+
+
+def test_unsupported_models_fall_back_to_stable_baselines3(tmp_path: Path) -> None:
+    model = _tiny(PPO, n_steps=8, batch_size=8,
+                  policy_kwargs={"net_arch": [16], "activation_fn": th.nn.ELU})  # fmt: skip
+    model.save(tmp_path / "elu.zip")
+    with pytest.raises(UnsupportedModelError, match="ELU"):
+        NetworkPolicy.from_zip(tmp_path / "elu.zip")
+    with pytest.raises(UnsupportedModelError):
+        NetworkPolicy.from_sb3(model)
+    env_id = "panda_rapier/PickAndPlace-v0"
+    policy, overrides, _, why = load_policy(tmp_path / "elu.zip", env_id, {"arm": "kinematic"})
+    assert isinstance(policy, PPO) and "ELU" in str(why)
+    assert overrides == {"arm": "kinematic", "control_mode": "ee"}
+    with pytest.raises(UnsupportedModelError):
+        load_policy(tmp_path / "elu.zip", env_id, {}, inference="native")
+    config = env_config(env_id, arm="kinematic", max_episode_steps=5)
+    assert evaluate(policy, config, 2).inference == TORCH
+    with pytest.raises(InvalidArgumentError, match="not a stable-baselines3 model"):
+        NetworkPolicy.from_zip(tmp_path / "missing.zip")
+
+
+class _Payload:
+    """Pickles to a call that creates a file: what a hostile model file would hold."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self):
+        return (open, (str(self.marker), "w"))
+
+
+def test_a_model_file_is_read_without_unpickling(tmp_path: Path) -> None:
+    """Every pickled entry of the data replaced by a payload that writes a file: the native
+    network reads the file without running it (stable-baselines3's load would)."""
+    marker = tmp_path / "ran"
+    payload = base64.b64encode(pickle.dumps(_Payload(marker))).decode()
+    source = MODELS / "bc-dagger-PickAndPlace-v0.zip"
+    hostile = tmp_path / "hostile.zip"
+    with zipfile.ZipFile(source) as archive, zipfile.ZipFile(hostile, "w") as out:
+        for item in archive.infolist():
+            raw = archive.read(item)
+            if item.filename == "data":
+                data = json.loads(raw)
+                for value in data.values():
+                    if isinstance(value, dict) and ":serialized:" in value:
+                        value[":serialized:"] = payload
+                raw = json.dumps(data).encode()
+            out.writestr(item, raw)
+    policy = NetworkPolicy.from_zip(hostile)
+    assert not marker.exists()
+    rows = _states("bc-dagger-PickAndPlace-v0.zip")[:5]
+    np.testing.assert_array_equal(policy.act(rows), NetworkPolicy.from_zip(source).act(rows))
+    pickle.loads(base64.b64decode(payload)).close()  # the payload does work when unpickled
+    assert marker.exists()
+
+
+def test_network_policy_refuses_bad_input() -> None:
+    policy = NetworkPolicy.from_zip(MODELS / "bc-dagger-PickAndPlace-v0.zip")
+    rows = np.zeros((2, policy.observation_dim), np.float32)
+    rows[1, 3] = np.nan
+    with pytest.raises(InvalidArgumentError, match="finite"):
+        policy.act(rows)
+    with pytest.raises(InvalidArgumentError, match="shape"):
+        policy.act(np.zeros((2, 5), np.float32))
+    with pytest.raises(InvalidArgumentError, match="deterministically"):
+        policy.predict(rows[:1], deterministic=False)
+    from panda_rapier import _native
+
+    low, high = -np.ones(3, np.float32), np.ones(3, np.float32)
+    weight = np.ones((3, 2), np.float32)
+    with pytest.raises(InvalidArgumentError, match="bias"):
+        _native.PolicyNetwork(2, [(weight, np.ones(2, np.float32))], "relu", "clip", low, high)
+    with pytest.raises(InvalidArgumentError, match="activation"):
+        _native.PolicyNetwork(2, [(weight, np.ones(3, np.float32))], "gelu", "clip", low, high)
+    with pytest.raises(InvalidArgumentError, match="low < high"):
+        _native.PolicyNetwork(2, [(weight, np.ones(3, np.float32))], "relu", "clip", high, low)
+
+
+def _report(success: str, placed: str, environment: dict[str, str]) -> EvaluationReport:
+    episodes = [
+        EpisodeRecord(i, 0, 0.0, 70, s == "1", p == "1", None, None, False)
+        for i, (s, p) in enumerate(zip(success, placed, strict=True))
+    ]
+    return EvaluationReport("p", {}, 0, 32, 1, 0, 1.0, episodes, 0, NATIVE, environment)
+
+
+def test_check_reproduction_per_episode_and_statistical() -> None:
+    rng = np.random.default_rng(0)
+    recorded_success = "".join("1" if x else "0" for x in rng.random(1000) < 0.95)
+    here = evaluation_environment(NATIVE)
+    recorded = {"environment": here, "success_by_episode": recorded_success,
+                "placed_by_episode": recorded_success}  # fmt: skip
+    same = recorded_success[:300]
+    check = check_reproduction(recorded, _report(same, same, here))
+    assert check.kind == "per-episode" and check.passed, check
+    # torch's capability is not an outcome field of the native network.
+    other_kernels = {**here, "torch_cpu_capability": "something else"}
+    assert check_reproduction(recorded, _report(same, same, other_kernels)).kind == "per-episode"
+    flipped = ("0" if same[7] == "1" else "1").join((same[:7], same[8:]))
+    check = check_reproduction(recorded, _report(flipped, same, here))
+    assert not check.passed and "episode 7" in check.details
+    # Another C library: the rates must hold, not the episodes.
+    elsewhere = {**here, "libc": "glibc-0.0"}
+    shuffled = "".join(rng.permutation(list(same)))
+    check = check_reproduction(recorded, _report(shuffled, shuffled, elsewhere))
+    assert check.kind == "statistical" and check.passed, check
+    assert check.differing == {"libc": (here["libc"], "glibc-0.0")}
+    # A real regression (0.95 -> 0.85) fails it.
+    worse = "".join("1" if x else "0" for x in rng.random(300) < 0.85)
+    check = check_reproduction(recorded, _report(worse, same, elsewhere))
+    assert not check.passed and "success" in check.details, check
+
+
+def test_cli_eval_reports_its_inference(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    model = str(MODELS / "bc-dagger-PickAndPlace-v0.zip")
+    reports = {}
+    for inference in ("auto", "torch"):
+        out = tmp_path / f"{inference}.json"
+        argv = ["eval", "--policy", model, "--episodes", "2", "--quiet", "--json", str(out),
+                "--max-episode-steps", "10", "--inference", inference]  # fmt: skip
+        assert main(argv) == 0
+        reports[inference] = json.loads(out.read_text())
+    assert reports["auto"]["inference"] == NATIVE
+    assert reports["torch"]["inference"] == TORCH
+    assert reports["auto"]["environment"]["machine"]
+    assert "inference           native-f64" in capsys.readouterr().out
