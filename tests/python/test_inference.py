@@ -8,6 +8,8 @@ import base64
 import json
 import os
 import pickle
+import platform
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -24,6 +26,7 @@ from stable_baselines3 import PPO, SAC, TD3
 from panda_rapier import InvalidArgumentError
 from panda_rapier.cli import main
 from panda_rapier.evaluation import (
+    OUTCOME_FIELDS,
     EpisodeRecord,
     EvaluationReport,
     check_reproduction,
@@ -275,3 +278,67 @@ def test_cli_eval_reports_its_inference(tmp_path: Path, capsys: pytest.CaptureFi
     assert reports["torch"]["inference"] == TORCH
     assert reports["auto"]["environment"]["machine"]
     assert "inference           native-f64" in capsys.readouterr().out
+
+
+def test_saved_network_round_trips_without_torch(tmp_path: Path) -> None:
+    policy = NetworkPolicy.from_zip(MODELS / "ppo-PickAndPlaceDense-v0.zip")
+    policy.save(tmp_path / "net.npz")
+    back = NetworkPolicy.load(tmp_path / "net.npz")
+    rows = _states("ppo-PickAndPlaceDense-v0.zip")
+    np.testing.assert_array_equal(back.act(rows), policy.act(rows))
+    assert back.algorithm == policy.algorithm and back.source == policy.source
+    with pytest.raises(InvalidArgumentError, match="cannot read"):
+        NetworkPolicy.load(MODELS / "README.md")
+
+
+#: Emulated CPUs (qemu-user): AVX2 and FMA without AVX-512; SSE4.2 without AVX.
+EMULATED_CPUS = ("Haswell-v4", "Nehalem")
+EMULATED_EPISODES = 32
+
+_EMULATED = r"""
+import json, sys
+from pathlib import Path
+from panda_rapier.evaluation import check_reproduction, evaluate
+from panda_rapier.inference import NetworkPolicy
+folder = Path(sys.argv[1])
+recorded = json.loads(Path(sys.argv[2]).read_text())
+results = {}
+for npz in sorted(folder.glob("*.npz")):
+    config = json.loads(npz.with_suffix(".json").read_text())
+    report = evaluate(NetworkPolicy.load(npz), config, int(sys.argv[3]), num_envs=32)
+    check = check_reproduction(recorded[npz.stem + ".zip"], report)
+    results[npz.stem] = [check.kind, check.passed, check.details]
+assert "torch" not in sys.modules
+print(json.dumps(results))
+"""
+
+
+@pytest.mark.skipif(
+    platform.machine() != "x86_64" or shutil.which("qemu-x86_64") is None,
+    reason="needs qemu-user on x86-64 (scripts/test installs it)",
+)
+@pytest.mark.parametrize("cpu", EMULATED_CPUS)
+def test_shipped_models_repeat_every_episode_on_emulated_cpus(tmp_path: Path, cpu: str) -> None:
+    """Under qemu emulating a CPU without AVX-512 (Haswell) and one without AVX (Nehalem), the
+    physics, glibc's maths routines and the native network pick their CPU-specific code for
+    that CPU; every shipped model's first 32 episodes must still repeat exactly. (The weights
+    go through NetworkPolicy.save, so the emulated process never imports torch.)"""
+    for name in SHIPPED:
+        NetworkPolicy.from_zip(MODELS / name).save(tmp_path / f"{Path(name).stem}.npz")
+        run = read_run_info(MODELS / name)
+        assert run is not None
+        config = env_config(run["env_id"], **run["env_kwargs"])
+        (tmp_path / f"{Path(name).stem}.json").write_text(json.dumps(config))
+    command = ["qemu-x86_64", "-cpu", cpu, sys.executable, "-c", _EMULATED, str(tmp_path),
+               str(MODELS / "evaluations.json"), str(EMULATED_EPISODES)]  # fmt: skip
+    out = subprocess.run(command, capture_output=True, text=True, timeout=540)
+    assert out.returncode == 0, out.stderr[-2000:]
+    results = json.loads(out.stdout.strip().splitlines()[-1])
+    assert len(results) == len(SHIPPED)
+    recorded = json.loads((MODELS / "evaluations.json").read_text())
+    here = evaluation_environment(NATIVE)
+    for name, (kind, passed, details) in results.items():
+        environment = recorded[f"{name}.zip"]["environment"]
+        same = all(environment.get(k) == here.get(k) for k in OUTCOME_FIELDS[NATIVE])
+        # Where the recorded C library matches this machine's, the episodes must repeat.
+        assert kind == ("per-episode" if same else "statistical") and passed, (name, details)

@@ -25,8 +25,9 @@ import json
 import re
 import zipfile
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -37,7 +38,9 @@ __all__ = [
     "NATIVE",
     "TORCH",
     "NetworkPolicy",
+    "NetworkSpec",
     "UnsupportedModelError",
+    "load_policy",
 ]
 
 #: The inference of :class:`NetworkPolicy`: float64, fixed order, CPU-independent.
@@ -67,6 +70,23 @@ _KNOWN_POLICY_KWARGS = {
 }  # fmt: skip
 
 
+@dataclass(frozen=True)
+class NetworkSpec:
+    """What the native network is built from (float32 arrays, torch's layout)."""
+
+    observation_dim: int
+    #: ``(weight, bias)`` per layer (``weight``: outputs x inputs), the output layer last.
+    layers: list[tuple[np.ndarray, np.ndarray]]
+    #: ``relu`` or ``tanh``, between hidden layers.
+    activation: str
+    #: ``clip`` (to the bounds) or ``squash`` (tanh, then scaled to the bounds).
+    output: str
+    low: np.ndarray
+    high: np.ndarray
+    #: ``(mean, scale, clip)`` of :class:`~panda_rapier.normalization.NormalizedFlatten`.
+    standardizer: tuple[np.ndarray, np.ndarray, float] | None = None
+
+
 class UnsupportedModelError(InvalidArgumentError):
     """A saved model that :class:`NetworkPolicy` cannot act out (it says why); stable-baselines3
     itself may still load it."""
@@ -85,8 +105,17 @@ class NetworkPolicy:
 
     inference = NATIVE
 
-    def __init__(self, network: _native.PolicyNetwork, algorithm: str, source: str) -> None:
-        self.network = network
+    def __init__(self, spec: NetworkSpec, algorithm: str, source: str) -> None:
+        self.spec = spec
+        self.network = _native.PolicyNetwork(
+            spec.observation_dim,
+            spec.layers,
+            spec.activation,
+            spec.output,
+            spec.low,
+            spec.high,
+            spec.standardizer,
+        )
         #: ``actor-critic`` (PPO, A2C), ``sac`` (SAC, TQC) or ``td3`` (TD3, DDPG).
         self.algorithm = algorithm
         #: Where the weights came from.
@@ -174,8 +203,7 @@ class NetworkPolicy:
             raise UnsupportedModelError("image observations (a CNN encoder)")
         low, high = _bounds(data.get("action_space") or {})
         state = _load_weights(weights)
-        network = _build(state, family, activation, extractor, clip, low, high)
-        return cls(network, family, str(path))
+        return cls(_build(state, family, activation, extractor, clip, low, high), family, str(path))
 
     @classmethod
     def from_sb3(cls, model: Any) -> NetworkPolicy:
@@ -197,8 +225,49 @@ class NetworkPolicy:
         space = model.action_space
         state = {k: v.detach().cpu() for k, v in policy.state_dict().items()}
         low, high = np.asarray(space.low, np.float32), np.asarray(space.high, np.float32)
-        network = _build(state, family, activation, extractor, clip, low, high)
-        return cls(network, family, type(model).__name__)
+        spec = _build(state, family, activation, extractor, clip, low, high)
+        return cls(spec, family, type(model).__name__)
+
+    def save(self, path: str | Path) -> None:
+        """Writes the network as a ``.npz`` of plain arrays (no pickle, no torch needed to
+        read it back with :meth:`load`)."""
+        spec = self.spec
+        arrays: dict[str, np.ndarray] = {"low": spec.low, "high": spec.high}
+        for i, (weight, bias) in enumerate(spec.layers):
+            arrays[f"layer{i}_weight"], arrays[f"layer{i}_bias"] = weight, bias
+        if spec.standardizer is not None:
+            arrays["mean"], arrays["scale"] = spec.standardizer[0], spec.standardizer[1]
+        meta = {"format": "panda_rapier.NetworkPolicy/1", "algorithm": self.algorithm,
+                "source": self.source, "observation_dim": spec.observation_dim,
+                "layers": len(spec.layers), "activation": spec.activation, "output": spec.output,
+                "clip": None if spec.standardizer is None else spec.standardizer[2]}  # fmt: skip
+        arrays["meta"] = np.array(json.dumps(meta))
+        with open(path, "wb") as file:
+            np.savez(file, **cast(Any, arrays))
+
+    @classmethod
+    def load(cls, path: str | Path) -> NetworkPolicy:
+        """Reads what :meth:`save` wrote (arrays only: ``allow_pickle=False``)."""
+        try:
+            with np.load(path, allow_pickle=False) as archive:
+                meta = json.loads(str(archive["meta"]))
+                if meta.get("format") != "panda_rapier.NetworkPolicy/1":
+                    raise InvalidArgumentError(f"{path}: not a saved NetworkPolicy")
+                layers = [
+                    (archive[f"layer{i}_weight"], archive[f"layer{i}_bias"])
+                    for i in range(int(meta["layers"]))
+                ]
+                standardizer = None
+                if meta["clip"] is not None:
+                    standardizer = (archive["mean"], archive["scale"], float(meta["clip"]))
+                spec = NetworkSpec(int(meta["observation_dim"]), layers, str(meta["activation"]),
+                                   str(meta["output"]), archive["low"], archive["high"],
+                                   standardizer)  # fmt: skip
+        except (OSError, KeyError, ValueError) as error:
+            raise InvalidArgumentError(
+                f"cannot read a NetworkPolicy from {path}: {error}"
+            ) from error
+        return cls(spec, str(meta["algorithm"]), str(meta["source"]))
 
 
 def _class_name(value: Any) -> str | None:
@@ -299,7 +368,7 @@ def _build(
     clip: float,
     low: np.ndarray,
     high: np.ndarray,
-) -> _native.PolicyNetwork:
+) -> NetworkSpec:
     extractors: tuple[str, ...]
     if family == "actor-critic":
         extractors = ("pi_features_extractor", "features_extractor")
@@ -325,9 +394,7 @@ def _build(
     elif extractor not in (None, "CombinedExtractor", "FlattenExtractor"):
         raise UnsupportedModelError(f"features extractor {extractor}")
     observation_dim = int(layers[0][0].shape[1])
-    return _native.PolicyNetwork(
-        observation_dim, layers, activation, output, low, high, standardizer
-    )
+    return NetworkSpec(observation_dim, layers, activation, output, low, high, standardizer)
 
 
 #: ``panda-rapier eval --inference`` choices.
