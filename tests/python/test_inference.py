@@ -318,7 +318,7 @@ print(json.dumps(results))
     reason="needs qemu-user on x86-64 (scripts/test installs it)",
 )
 @pytest.mark.parametrize("cpu", EMULATED_CPUS)
-def test_shipped_models_repeat_every_episode_on_emulated_cpus(tmp_path: Path, cpu: str) -> None:
+def test_emulated_cpus_repeat_every_shipped_episode(tmp_path: Path, cpu: str) -> None:
     """Under qemu emulating a CPU without AVX-512 (Haswell) and one without AVX (Nehalem), the
     physics, glibc's maths routines and the native network pick their CPU-specific code for
     that CPU; every shipped model's first 32 episodes must still repeat exactly. (The weights
