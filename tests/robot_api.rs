@@ -2,7 +2,7 @@
 //! kinematics that agree with the simulated link poses.
 
 use panda_rapier::nalgebra::{Isometry3, Vector3};
-use panda_rapier::{JointControl, JointType, SimConfig, Simulation, PANDA_READY};
+use panda_rapier::{ArmFidelity, JointControl, JointType, SimConfig, Simulation, PANDA_READY};
 
 fn sim() -> Simulation {
     Simulation::new(SimConfig::default()).unwrap()
@@ -171,6 +171,152 @@ fn torque_control_applies_clamped_joint_torques() {
     assert_eq!(run(-1e6).to_bits(), lifted.to_bits());
 }
 
+/// Velocities of the seven arm joints.
+fn arm_velocities(sim: &Simulation) -> Vec<f64> {
+    sim.joint_velocities()[..7].to_vec()
+}
+
+#[test]
+fn a_constant_torque_adds_the_same_velocity_every_step() {
+    // Without gravity, a constant torque on every arm joint from rest: each physics step adds
+    // about the same velocity (the mass matrix barely changes over a few steps). Issue 33: the
+    // torque used to pile up, the increments growing linearly (1x, 2x, 3x, ...).
+    let config = SimConfig {
+        gravity: [0.0, 0.0, 0.0],
+        ..SimConfig::default()
+    };
+    let mut sim = Simulation::new(config).unwrap();
+    let torques = [2.0, -3.0, 1.5, 2.5, -0.5, 0.8, 0.3];
+    for (dof, torque) in torques.iter().enumerate() {
+        let joint = sim.model().actuated_joints()[dof];
+        sim.set_joint_control(joint, JointControl::Torque(*torque))
+            .unwrap();
+    }
+    let mut previous = arm_velocities(&sim);
+    let mut increments = Vec::new();
+    for _ in 0..4 {
+        sim.step();
+        let now = arm_velocities(&sim);
+        increments.push(
+            now.iter()
+                .zip(&previous)
+                .map(|(a, b)| a - b)
+                .collect::<Vec<_>>(),
+        );
+        previous = now;
+    }
+    // Coupling (Coriolis) moves the small ones a little; a piled-up torque would double them.
+    let largest = increments[0].iter().map(|v| v.abs()).fold(0.0, f64::max);
+    for step in &increments[1..] {
+        for (dof, (a, b)) in step.iter().zip(&increments[0]).enumerate() {
+            assert!(
+                (a - b).abs() <= 0.02 * largest,
+                "joint {}: increment {a} after {b} in the first step ({increments:?})",
+                dof + 1
+            );
+        }
+    }
+    // Switched back to zero torque, the arm coasts: no torque stays behind.
+    for dof in 0..7 {
+        let joint = sim.model().actuated_joints()[dof];
+        sim.set_joint_control(joint, JointControl::Torque(0.0))
+            .unwrap();
+    }
+    let before = arm_velocities(&sim);
+    sim.step();
+    let after = arm_velocities(&sim);
+    let change: f64 = before
+        .iter()
+        .zip(&after)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    let first: f64 = increments[0].iter().map(|v| v.abs()).fold(0.0, f64::max);
+    assert!(
+        change < 0.05 * first,
+        "coasting changed a velocity by {change} (a torque step by {first})"
+    );
+}
+
+#[test]
+fn no_hidden_joint_damping_and_an_explicit_one_acts() {
+    // Zero gravity, zero torque, a spinning wrist: with no damping configured (the URDF has no
+    // `<dynamics>`) the joint keeps its speed; `joint_damping` slows it.
+    let spin = |damping: Option<f64>| {
+        let config = SimConfig {
+            gravity: [0.0, 0.0, 0.0],
+            joint_damping: damping,
+            ..SimConfig::default()
+        };
+        let mut sim = Simulation::new(config).unwrap();
+        let j7 = sim.model().joint_index("panda_joint7").unwrap();
+        sim.set_joint_control(j7, JointControl::Torque(1.0))
+            .unwrap();
+        for _ in 0..5 {
+            sim.step();
+        }
+        sim.set_joint_control(j7, JointControl::Torque(0.0))
+            .unwrap();
+        let start = sim.joint_velocities()[6];
+        for _ in 0..20 {
+            sim.step();
+        }
+        (start, sim.joint_velocities()[6])
+    };
+    let (start, end) = spin(None);
+    assert!(start > 1.0, "the wrist spun up to {start} rad/s");
+    assert!(
+        (end - start).abs() < 0.01 * start,
+        "undamped wrist: {start} -> {end} rad/s in 0.2 s"
+    );
+    let (start, end) = spin(Some(0.1));
+    assert!(
+        end < 0.9 * start,
+        "damped wrist: {start} -> {end} rad/s in 0.2 s"
+    );
+    assert!(Simulation::new(SimConfig {
+        joint_damping: Some(-1.0),
+        ..SimConfig::default()
+    })
+    .is_err());
+}
+
+#[test]
+fn a_moved_robot_base_moves_the_dynamic_and_the_kinematic_arm() {
+    // Issue 33: the dynamic arm ignored `robot_base` while kinematics honoured it.
+    for arm in [ArmFidelity::Dynamic, ArmFidelity::Kinematic] {
+        let config = SimConfig {
+            arm,
+            robot_base: [0.2, -0.1, 0.05],
+            ..SimConfig::default()
+        };
+        let mut sim = Simulation::new(config).unwrap();
+        let base = sim.link_state("panda_link0").unwrap();
+        assert!(
+            (base.state.position - Vector3::new(0.2, -0.1, 0.05)).norm() < 1e-6,
+            "{arm:?}: link0 at {:?}",
+            base.state.position
+        );
+        let q = vec![0.3, -0.2, 0.1, -2.0, 0.2, 1.9, 0.5, 0.03];
+        sim.set_joint_positions(&q).unwrap();
+        let fk = sim.model().link_poses(&q, sim.base_pose()).unwrap();
+        for link in sim.link_states() {
+            let err = (link.state.position - fk[link.index].translation.vector).norm();
+            assert!(err < 2e-5, "{arm:?} {}: {err} m from kinematics", link.name);
+        }
+        let tcp = sim.tcp_state().position;
+        let expected = sim.model().tcp_pose(&q, sim.base_pose()).unwrap();
+        assert!((tcp - expected.translation.vector).norm() < 2e-5);
+        // Held by position control, it stays there.
+        for _ in 0..25 {
+            sim.step_control();
+        }
+        assert!(
+            (sim.tcp_state().position - tcp).norm() < 2e-3,
+            "{arm:?} drifted"
+        );
+    }
+}
+
 #[test]
 fn gripper_opens_and_closes_with_coupled_fingers() {
     let mut sim = sim();
@@ -275,4 +421,84 @@ fn the_hand_collides_with_the_platform_and_the_floor() {
         );
         assert!(sim.is_finite());
     }
+}
+
+#[test]
+fn the_models_gravity_torques_hold_the_simulated_arm() {
+    // Issue 33's bar, against the model's own inverse dynamics (MuJoCo's in
+    // tests/python/test_dynamics.py): 50 physics steps, every joint below 0.05 rad/s.
+    let configurations = [
+        PANDA_READY.to_vec(),
+        vec![0.3, 0.1, -0.2, -2.1, 0.2, 2.0, 0.4, 0.04],
+        vec![-0.3, 0.6, 0.3, -1.6, -0.3, 2.5, 1.1, 0.04],
+    ];
+    let gravity = Vector3::new(0.0, 0.0, -9.81);
+    for q in configurations {
+        let mut sim = sim();
+        sim.set_joint_positions(&q).unwrap();
+        let torques = sim
+            .model()
+            .gravity_torques(&q, &gravity, sim.base_pose())
+            .unwrap();
+        for (dof, torque) in torques.iter().enumerate().take(7) {
+            let joint = sim.model().actuated_joints()[dof];
+            sim.set_joint_control(joint, JointControl::Torque(*torque))
+                .unwrap();
+        }
+        for _ in 0..50 {
+            sim.step();
+        }
+        let fastest = arm_velocities(&sim)
+            .iter()
+            .map(|v| v.abs())
+            .fold(0.0, f64::max);
+        assert!(fastest < 0.05, "{q:?}: {fastest} rad/s after 0.5 s");
+    }
+}
+
+#[test]
+fn mass_matrix_and_jacobian_are_consistent_with_kinematics() {
+    let sim = sim();
+    let model = sim.model();
+    let q = vec![0.3, -0.4, 0.2, -2.0, 0.5, 1.8, -0.6, 0.02];
+    let m = model.mass_matrix(&q).unwrap();
+    assert_eq!(m.shape(), (8, 8));
+    assert!((&m - m.transpose()).norm() < 1e-12);
+    assert!(m.clone().cholesky().is_some(), "not positive definite: {m}");
+    // The Jacobian's columns are the TCP's motion per unit joint motion.
+    let tcp_link = &model.links()[model.tcp().link].name;
+    let offset = model.tcp().offset.translation.vector;
+    let j = model
+        .jacobian(tcp_link, &offset, &q, sim.base_pose())
+        .unwrap();
+    let h = 1e-6;
+    for dof in 0..8 {
+        let (mut plus, mut minus) = (q.clone(), q.clone());
+        plus[dof] += h;
+        minus[dof] -= h;
+        let a = model.tcp_pose(&plus, sim.base_pose()).unwrap();
+        let b = model.tcp_pose(&minus, sim.base_pose()).unwrap();
+        let linear = (a.translation.vector - b.translation.vector) / (2.0 * h);
+        let angular = (a.rotation * b.rotation.inverse()).scaled_axis() / (2.0 * h);
+        for r in 0..3 {
+            assert!((j[(r, dof)] - linear[r]).abs() < 1e-6, "dof {dof}: {j}");
+            assert!(
+                (j[(r + 3, dof)] - angular[r]).abs() < 1e-6,
+                "dof {dof}: {j}"
+            );
+        }
+    }
+    assert!(model.mass_matrix(&[0.0; 3]).is_err());
+    assert!(model
+        .inverse_dynamics(
+            &q,
+            &[f64::NAN; 8],
+            &[0.0; 8],
+            &Vector3::zeros(),
+            sim.base_pose()
+        )
+        .is_err());
+    assert!(model
+        .jacobian("no_link", &offset, &q, sim.base_pose())
+        .is_err());
 }

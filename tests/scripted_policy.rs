@@ -14,10 +14,15 @@ fn config(mode: ControlMode) -> EnvConfig {
     }
 }
 
+/// Placed in 99.3 % (ee) and 99.7 % (joints) of 1,000 episodes when measured (2026-11-25).
+/// At 200 episodes a 98 % bar failed on chance alone: which episodes fail moves with any
+/// float-level change of the physics (5 of the first 200 after the hidden joint damping went,
+/// 1 with it, the same 99.3-99.4 % over 1,000). Over 1,000 episodes a 99.3 % expert stays
+/// above 98.5 % with probability 0.998, and a 97 % one never does.
 #[test]
-fn places_the_cube_in_at_least_98_percent_of_200_seeded_episodes() {
+fn places_the_cube_in_at_least_98_5_percent_of_1000_seeded_episodes() {
     for mode in [ControlMode::Ee, ControlMode::Joints] {
-        let report = evaluate(&config(mode), 200, 32, Some(2), 0, |_| {}).unwrap();
+        let report = evaluate(&config(mode), 1000, 32, Some(2), 0, |_| {}).unwrap();
         println!(
             "{}: placed {:.1} %, mean {:.1} steps, failed {:?}",
             mode.as_str(),
@@ -25,9 +30,9 @@ fn places_the_cube_in_at_least_98_percent_of_200_seeded_episodes() {
             report.mean_steps_to_placed(),
             report.failed_episodes()
         );
-        assert_eq!(report.episodes.len(), 200);
+        assert_eq!(report.episodes.len(), 1000);
         assert!(
-            report.placed_rate() >= 0.98,
+            report.placed_rate() >= 0.985,
             "{}: placed in {:.1} % of episodes",
             mode.as_str(),
             100.0 * report.placed_rate()

@@ -227,6 +227,14 @@ pub struct SimConfig {
     pub robot_friction: f64,
     /// Friction coefficient of the floor.
     pub floor_friction: f64,
+    /// Viscous damping (N m s/rad or N s/m) of every movable joint of the dynamic arm and the
+    /// gripper, in place of the URDF's `<dynamics damping>`; `None` uses the URDF's, 0 where
+    /// it has none (the bundled Panda has none). A passive term beside the motors: position and
+    /// velocity control have their own damping (`motors`).
+    pub joint_damping: Option<f64>,
+    /// Coulomb friction (N m or N) of every movable joint, in place of the URDF's `<dynamics
+    /// friction>`; `None` uses the URDF's, 0 where absent.
+    pub joint_friction: Option<f64>,
     /// Solver settings.
     pub solver: SolverConfig,
     /// Joint motor gains.
@@ -248,6 +256,8 @@ impl Default for SimConfig {
             finger_friction: 1.0,
             robot_friction: 0.5,
             floor_friction: 1.0,
+            joint_damping: None,
+            joint_friction: None,
             solver: SolverConfig::default(),
             motors: MotorConfig::default(),
             platform: PlatformConfig::default(),
@@ -317,6 +327,12 @@ impl SimConfig {
         non_negative("finger_friction", self.finger_friction)?;
         non_negative("robot_friction", self.robot_friction)?;
         non_negative("floor_friction", self.floor_friction)?;
+        if let Some(d) = self.joint_damping {
+            non_negative("joint_damping", d)?;
+        }
+        if let Some(f) = self.joint_friction {
+            non_negative("joint_friction", f)?;
+        }
 
         let s = &self.solver;
         positive("solver.dt", s.dt)?;

@@ -16,6 +16,7 @@
 
 pub mod assets;
 pub mod config;
+pub mod dynamics;
 pub mod error;
 pub mod kinematics;
 pub mod model;

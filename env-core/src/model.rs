@@ -71,6 +71,11 @@ pub struct JointInfo {
     pub max_force: f64,
     /// Velocity limit (rad/s or m/s) from the URDF.
     pub max_velocity: f64,
+    /// Viscous damping (N m s/rad or N s/m) from the URDF's `<dynamics damping>`; 0 where
+    /// absent, as the URDF standard (and MuJoCo) read it.
+    pub damping: f64,
+    /// Coulomb friction (N m or N) from the URDF's `<dynamics friction>`; 0 where absent.
+    pub friction: f64,
     /// Unit axis in the joint frame.
     pub axis: Vector3<f64>,
     /// Name of the parent link.
@@ -272,6 +277,17 @@ impl RobotModel {
                     j.name
                 )));
             }
+            let (damping, friction) = j
+                .dynamics
+                .as_ref()
+                .map_or((0.0, 0.0), |d| (d.damping, d.friction));
+            if !(damping.is_finite() && damping >= 0.0 && friction.is_finite() && friction >= 0.0) {
+                return Err(malformed(format!(
+                    "joint `{}` has dynamics damping {damping}, friction {friction} (need finite \
+                     values >= 0)",
+                    j.name
+                )));
+            }
             joints.push(JointInfo {
                 index,
                 name: j.name.clone(),
@@ -280,6 +296,8 @@ impl RobotModel {
                 upper,
                 max_force: j.limit.effort,
                 max_velocity: j.limit.velocity,
+                damping,
+                friction,
                 axis,
                 parent_link: j.parent.link.clone(),
                 child_link: j.child.link.clone(),

@@ -1,6 +1,6 @@
 //! `PandaEnv`: one [`PandaEnv`] and its robot, for `panda_rapier.PandaEnv`.
 
-use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use panda_rapier_core::{EnvConfig, EnvSnapshot, IkOptions, JointControl, PandaEnv, ResetOptions};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -205,8 +205,15 @@ impl NativeEnv {
     /// Every joint of the robot (fixed ones included), as dicts.
     fn joint_info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         let list = PyList::empty(py);
+        let config = self.env.simulation().config();
         for joint in self.env.simulation().model().joints() {
             let dict = PyDict::new(py);
+            // What the simulation applies: the configuration's override, else the URDF's.
+            let movable = joint.joint_type.is_movable();
+            let passive =
+                |set: Option<f64>, urdf: f64| if movable { set.unwrap_or(urdf) } else { 0.0 };
+            dict.set_item("damping", passive(config.joint_damping, joint.damping))?;
+            dict.set_item("friction", passive(config.joint_friction, joint.friction))?;
             dict.set_item("index", joint.index)?;
             dict.set_item("name", &joint.name)?;
             dict.set_item("type", joint.joint_type.as_str())?;
@@ -346,6 +353,72 @@ impl NativeEnv {
         let tcp = model.tcp_pose(&q, sim.base_pose()).map_err(err)?;
         dict.set_item("tcp", pose_tuple(&tcp))?;
         Ok(dict)
+    }
+
+    /// Joint torques `M(q) qdd + C(q, qd) qd + g(q)` of the robot model under the
+    /// simulation's gravity (`panda_rapier_core::dynamics`).
+    fn inverse_dynamics(
+        &self,
+        py: Python<'_>,
+        q: Vec<f64>,
+        qd: Vec<f64>,
+        qdd: Vec<f64>,
+    ) -> PyResult<Vec<f64>> {
+        let sim = self.env.simulation();
+        let [x, y, z] = sim.config().gravity;
+        let gravity = panda_rapier_core::nalgebra::Vector3::new(x, y, z);
+        sim.model()
+            .inverse_dynamics(&q, &qd, &qdd, &gravity, sim.base_pose())
+            .map_err(|e| to_py(py, e))
+    }
+
+    /// The joint-space mass matrix at `q` (`num_dofs x num_dofs`).
+    fn mass_matrix<'py>(
+        &self,
+        py: Python<'py>,
+        q: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let m = self
+            .env
+            .simulation()
+            .model()
+            .mass_matrix(&q)
+            .map_err(|e| to_py(py, e))?;
+        let n = m.nrows();
+        let rows: Vec<f64> = (0..n)
+            .flat_map(|r| (0..n).map(move |c| (r, c)))
+            .map(|(r, c)| m[(r, c)])
+            .collect();
+        PyArray1::from_vec(py, rows).reshape([n, n])
+    }
+
+    /// The world-frame Jacobian (`6 x num_dofs`, linear rows first) of `point` in link `link`'s
+    /// frame (`tcp`: the tool centre point, `point` in its frame) at `q`.
+    fn jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        link: &str,
+        point: [f64; 3],
+        q: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let sim = self.env.simulation();
+        let model = sim.model();
+        let (name, point) = if link == "tcp" {
+            let tcp = model.tcp();
+            let p = tcp.offset * panda_rapier_core::nalgebra::Point3::from(vector3(point));
+            (model.links()[tcp.link].name.clone(), p.coords)
+        } else {
+            (link.to_string(), vector3(point))
+        };
+        let j = model
+            .jacobian(&name, &point, &q, sim.base_pose())
+            .map_err(|e| to_py(py, e))?;
+        let cols = j.ncols();
+        let rows: Vec<f64> = (0..6)
+            .flat_map(|r| (0..cols).map(move |c| (r, c)))
+            .map(|(r, c)| j[(r, c)])
+            .collect();
+        PyArray1::from_vec(py, rows).reshape([6, cols])
     }
 
     /// Damped-least-squares IK for the TCP; see `panda_rapier.Robot.inverse_kinematics`.

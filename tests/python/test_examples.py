@@ -60,3 +60,13 @@ def test_soak_script_reports_memory_and_speed(tmp_path: Path) -> None:
     report = json.loads((tmp_path / "soak.json").read_text())
     assert report["env_steps"] == 256 and len(report["samples"]) == 2 and report["complete"]
     assert all(s["rss_mib"] > 0 and s["env_steps_per_s"] > 0 for s in report["samples"])
+
+
+def test_computed_torque_example_tracks_with_the_model() -> None:
+    """The model's inverse dynamics make torque control track a trajectory that PD alone
+    misses, and gravity compensation holds the arm."""
+    out = run(ROOT / "examples/computed_torque.py", "--seconds", "1")
+    errors = [float(x) for x in re.findall(r"max tracking error ([0-9.]+) mrad", out)]
+    assert len(errors) == 2 and errors[0] < 5.0 and errors[1] > 10 * errors[0], out
+    speed = float(re.search(r"fastest joint ([0-9.]+) rad/s", out).group(1))
+    assert speed < 0.05, out

@@ -411,6 +411,13 @@ fn insert_multibody(
         finger_joints,
         required,
     )?;
+    // rapier starts a multibody's root joint at the origin and, once it finds the root body
+    // fixed, keeps that pose unless asked to read the body's: without this the dynamic arm
+    // ignored `sim.robot_base` while kinematics and `ee` control honoured it (issue 33).
+    if let Some(mb) = world.multibody_joints.get_multibody_mut(multibody) {
+        mb.forward_kinematics(&world.bodies, true);
+        mb.update_rigid_bodies(&mut world.bodies, true);
+    }
     Ok((handles, joint_slots, multibody))
 }
 
@@ -475,10 +482,17 @@ fn build_multibody(
             } else {
                 config.motors.arm_armature
             };
+            // Every passive term explicit: rapier gives each angular dof a default damping of
+            // 0.1 N m s/rad that no URDF or option asked for (issue 33); the URDF's
+            // `<dynamics>` (0 where absent) or the configuration's override replace it.
+            let damping = config.joint_damping.unwrap_or(j.damping);
+            let friction = config.joint_friction.unwrap_or(j.friction);
             if let Some(link) = mb.link(slot.link_id) {
                 let dof = link.assembly_id();
                 if dof < mb.armature().len() {
                     mb.armature_mut()[dof] = armature as f32;
+                    mb.damping_mut()[dof] = damping as f32;
+                    mb.frictions_mut()[dof] = friction as f32;
                 }
             }
         }

@@ -314,9 +314,13 @@ impl Simulation {
             return;
         }
         self.torques_applied = torque_control;
+        // rapier keeps user forces and torques until they are reset, each kind by its own
+        // call: clearing only the forces let every step add the torque again on top of the
+        // last (issue 33: the arm accelerated harder every step under a constant torque).
         for body in self.link_bodies.iter().flatten() {
             if let Some(rb) = self.world.bodies.get_mut(*body) {
                 rb.reset_forces(false);
+                rb.reset_torques(false);
             }
         }
         for (dof, control) in self.controls.iter().enumerate() {

@@ -252,6 +252,8 @@ impl Default for TaskThresholds {
 ///     "finger_friction": 1.0,
 ///     "robot_friction": 0.5,
 ///     "floor_friction": 1.0,
+///     "joint_damping": null,
+///     "joint_friction": null,
 ///     "solver": {
 ///       "dt": 0.01,
 ///       "substeps": 4,

@@ -39,7 +39,9 @@ class Robot:
         """Every joint (fixed ones included), in URDF order: ``index``, ``name``, ``type``
         (revolute, prismatic, continuous, fixed), ``lower``, ``upper`` (rad or m), ``max_force``
         (N m or N), ``max_velocity``, ``axis``, ``parent_link``, ``child_link``, ``dof`` (entry
-        of ``q`` driven by the joint, or None) and ``mimic`` (index of the joint it copies)."""
+        of ``q`` driven by the joint, or None), ``mimic`` (index of the joint it copies) and the
+        passive ``damping`` (N m s/rad or N s/m) and ``friction`` (N m or N) the simulation
+        applies (the URDF's ``<dynamics>``, or ``sim.joint_damping`` / ``joint_friction``)."""
         return list(self._native.joint_info())
 
     def link_names(self) -> list[str]:
@@ -101,6 +103,48 @@ class Robot:
         """World ``(position, quaternion xyzw)`` of every link and of ``"tcp"`` (the point
         between the fingertips) for configuration ``q``; the simulation is not touched."""
         return dict(self._native.forward_kinematics(_floats(q, "q")))
+
+    def inverse_dynamics(
+        self,
+        q: Sequence[float] | np.ndarray | None = None,
+        qd: Sequence[float] | np.ndarray | None = None,
+        qdd: Sequence[float] | np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Joint torques ``M(q) qdd + C(q, qd) qd + g(q)`` (N m; N for the gripper entry, both
+        fingers together) of the rigid-body model under the simulation's gravity, by recursive
+        Newton-Euler: PyBullet's ``calculateInverseDynamics``. ``q`` and ``qd`` default to the
+        current state, ``qdd`` to zeros. Joint damping, friction and armature are not included
+        (none is configured by default)."""
+        q_ = _floats(self.joint_positions() if q is None else q, "q")
+        qd_ = _floats(self.joint_velocities() if qd is None else qd, "qd")
+        qdd_ = _floats(np.zeros(self.num_dofs) if qdd is None else qdd, "qdd")
+        return np.asarray(self._native.inverse_dynamics(q_, qd_, qdd_))
+
+    def gravity_torques(self, q: Sequence[float] | np.ndarray | None = None) -> np.ndarray:
+        """The torques that hold the robot still at ``q`` (default: the current one): apply
+        them with :meth:`torque_control` for gravity compensation."""
+        return self.inverse_dynamics(q, np.zeros(self.num_dofs), np.zeros(self.num_dofs))
+
+    def mass_matrix(self, q: Sequence[float] | np.ndarray | None = None) -> np.ndarray:
+        """The joint-space mass matrix ``M(q)`` (``num_dofs x num_dofs``; default: the
+        current ``q``): PyBullet's ``calculateMassMatrix``."""
+        q_ = _floats(self.joint_positions() if q is None else q, "q")
+        return np.asarray(self._native.mass_matrix(q_))
+
+    def jacobian(
+        self,
+        link: str = "tcp",
+        point: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
+        q: Sequence[float] | np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The world-frame Jacobian (``6 x num_dofs``: linear velocity rows, then angular) of
+        ``point`` in the frame of ``link`` (default: the tool centre point) at ``q`` (default:
+        the current one): PyBullet's ``calculateJacobian``, both parts in one matrix."""
+        p = _floats(point, "point")
+        if len(p) != 3:
+            raise InvalidArgumentError(f"point must have 3 values, got {len(p)}")
+        q_ = _floats(self.joint_positions() if q is None else q, "q")
+        return np.asarray(self._native.jacobian(str(link), (p[0], p[1], p[2]), q_))
 
     def inverse_kinematics(
         self,
