@@ -502,3 +502,32 @@ fn mass_matrix_and_jacobian_are_consistent_with_kinematics() {
         .jacobian("no_link", &offset, &q, sim.base_pose())
         .is_err());
 }
+
+#[test]
+fn a_constant_finger_force_adds_the_same_velocity_every_step() {
+    // The prismatic path (body forces) beside the revolute one: no gravity, a closing force
+    // on the gripper's drive from fully open, four physics steps before the fingers meet.
+    let config = SimConfig {
+        gravity: [0.0, 0.0, 0.0],
+        ..SimConfig::default()
+    };
+    let mut sim = Simulation::new(config).unwrap();
+    let finger = sim.model().joint_index("panda_finger_joint1").unwrap();
+    sim.set_joint_control(finger, JointControl::Torque(-1.0))
+        .unwrap();
+    let mut previous = sim.joint_velocities()[7];
+    let mut increments = Vec::new();
+    for _ in 0..4 {
+        sim.step();
+        let now = sim.joint_velocities()[7];
+        increments.push(now - previous);
+        previous = now;
+    }
+    assert!(increments[0] < 0.0, "{increments:?}");
+    for step in &increments[1..] {
+        assert!(
+            (step - increments[0]).abs() <= 0.02 * increments[0].abs(),
+            "{increments:?}"
+        );
+    }
+}
