@@ -39,6 +39,7 @@ from panda_rapier.inference import (
     TORCH,
     NetworkPolicy,
     UnsupportedModelError,
+    UntrustedModelError,
     load_policy,
 )
 from panda_rapier.normalization import NormalizedFlatten, fit_normalizers
@@ -162,7 +163,11 @@ def test_unsupported_models_fall_back_to_stable_baselines3(tmp_path: Path) -> No
     with pytest.raises(UnsupportedModelError):
         NetworkPolicy.from_sb3(model)
     env_id = "panda_rapier/PickAndPlace-v0"
-    policy, overrides, _, why = load_policy(tmp_path / "elu.zip", env_id, {"arm": "kinematic"})
+    with pytest.raises(UntrustedModelError, match=r"ELU.*trust-model-file"):
+        load_policy(tmp_path / "elu.zip", env_id, {"arm": "kinematic"})
+    policy, overrides, _, why = load_policy(
+        tmp_path / "elu.zip", env_id, {"arm": "kinematic"}, trust=True
+    )
     assert isinstance(policy, PPO) and "ELU" in str(why)
     assert overrides == {"arm": "kinematic", "control_mode": "ee"}
     with pytest.raises(UnsupportedModelError):
@@ -204,6 +209,27 @@ def test_a_model_file_is_read_without_unpickling(tmp_path: Path) -> None:
     assert not marker.exists()
     rows = _states("bc-dagger-PickAndPlace-v0.zip")[:5]
     np.testing.assert_array_equal(policy.act(rows), NetworkPolicy.from_zip(source).act(rows))
+    # A hostile file the native network cannot act out: panda-rapier eval refuses it rather
+    # than unpickling it.
+    model = _tiny(PPO, n_steps=8, batch_size=8,
+                  policy_kwargs={"net_arch": [16], "activation_fn": th.nn.ELU})  # fmt: skip
+    model.save(tmp_path / "elu.zip")
+    with (
+        zipfile.ZipFile(tmp_path / "elu.zip") as archive,
+        zipfile.ZipFile(tmp_path / "hostile-elu.zip", "w") as out,
+    ):
+        for item in archive.infolist():
+            raw = archive.read(item)
+            if item.filename == "data":
+                data = json.loads(raw)
+                for value in data.values():
+                    if isinstance(value, dict) and ":serialized:" in value:
+                        value[":serialized:"] = payload
+                raw = json.dumps(data).encode()
+            out.writestr(item, raw)
+    argv = ["eval", "--policy", str(tmp_path / "hostile-elu.zip"), "--episodes", "1", "--quiet"]
+    assert main(argv) == 2
+    assert not marker.exists()
     pickle.loads(base64.b64decode(payload)).close()  # the payload does work when unpickled
     assert marker.exists()
 
@@ -272,6 +298,9 @@ def test_cli_eval_reports_its_inference(tmp_path: Path, capsys: pytest.CaptureFi
         out = tmp_path / f"{inference}.json"
         argv = ["eval", "--policy", model, "--episodes", "2", "--quiet", "--json", str(out),
                 "--max-episode-steps", "10", "--inference", inference]  # fmt: skip
+        if inference == "torch":
+            assert main(argv) == 2  # unpickling the file takes consent
+            argv.append("--trust-model-file")
         assert main(argv) == 0
         reports[inference] = json.loads(out.read_text())
     assert reports["auto"]["inference"] == NATIVE

@@ -257,7 +257,10 @@ def test_pixel_ppo_trains_evaluates_and_reloads(tmp_path: Path) -> None:
     first = run()
     assert first == run()  # evaluation of a pixel policy is reproducible
     assert all(np.isfinite(first))
-    assert main(["eval", "--policy", str(path), "--episodes", "2", "--quiet"]) == 0
+    # A CNN policy runs on torch: loading it unpickles the file, which takes consent.
+    assert main(["eval", "--policy", str(path), "--episodes", "2", "--quiet"]) == 2
+    assert main(["eval", "--policy", str(path), "--episodes", "2", "--quiet",
+                 "--trust-model-file"]) == 0  # fmt: skip
 
 
 def test_the_pixel_examples_run(tmp_path: Path) -> None:

@@ -117,6 +117,13 @@ def _parser() -> argparse.ArgumentParser:
         "torch (the model's own float32 predict) or auto (native where the model allows, the "
         "default)",
     )
+    evaluation.add_argument(
+        "--trust-model-file",
+        action="store_true",
+        help="allow loading the model with stable-baselines3, which unpickles (and may run) "
+        "code from the file: needed for models the native network cannot act out (image "
+        "policies, other architectures) and for --inference torch",
+    )
     evaluation.add_argument("--json", type=Path, default=None, help="write the report here")
     evaluation.add_argument(
         "--video",
@@ -486,7 +493,7 @@ def _run_eval(args: argparse.Namespace) -> int:
         env_id = args.env_id or recorded_id or DEFAULT_ENV_ID
         overrides = {**(recorded if env_id == recorded_id else {}), **overrides}
         policy, overrides, observation, fallback = load_policy(
-            model_path, env_id, overrides, algo=args.algo, inference=args.inference
+            model_path, env_id, overrides, args.algo, args.inference, args.trust_model_file
         )
         if fallback is not None:
             print(f"inference: torch float32 (not the native network: {fallback})")

@@ -40,6 +40,7 @@ __all__ = [
     "NetworkPolicy",
     "NetworkSpec",
     "UnsupportedModelError",
+    "UntrustedModelError",
     "load_policy",
 ]
 
@@ -401,19 +402,27 @@ def _build(
 INFERENCE_CHOICES = ("auto", "native", "torch")
 
 
+class UntrustedModelError(UnsupportedModelError):
+    """Acting a model file out would unpickle (and so may run) code from it, and the caller
+    did not say the file is trusted."""
+
+
 def load_policy(
     path: str | Path,
     env_id: str,
     overrides: Mapping[str, Any],
     algo: str | None = None,
     inference: str = "auto",
+    trust: bool = False,
 ) -> tuple[Any, dict[str, Any], dict[str, Any], str | None]:
     """The policy of a saved model as ``panda-rapier eval`` runs it: a :class:`NetworkPolicy`
     where the file allows (``inference="auto"`` or ``"native"``; ``"native"`` raises
     :class:`UnsupportedModelError` otherwise), else the stable-baselines3 model (``"torch"``,
-    or the fallback). Returns the policy, ``overrides`` with the control mode the model acts
-    in (unless they set one), the image options of its observation and, for a fallback, why
-    the native network could not be used."""
+    or the fallback). Loading with stable-baselines3 unpickles entries of the file, which can
+    run code a hostile file carries: it needs ``trust=True`` (``--trust-model-file``), and
+    raises :class:`UntrustedModelError` without it. Returns the policy, ``overrides`` with the
+    control mode the model acts in (unless they set one), the image options of its
+    observation and, for a fallback, why the native network could not be used."""
     if inference not in INFERENCE_CHOICES:
         raise InvalidArgumentError(
             f"inference must be one of {INFERENCE_CHOICES}, got {inference!r}"
@@ -430,6 +439,13 @@ def load_policy(
         else:
             overrides.setdefault("control_mode", "joints" if policy.action_dim == 8 else "ee")
             return policy, overrides, {}, None
+    if not trust:
+        reason = f"the native network cannot act it out ({fallback}); " if fallback else ""
+        raise UntrustedModelError(
+            f"{path}: {reason}loading it with stable-baselines3 unpickles entries of the file, "
+            "which can run code it carries; pass --trust-model-file (Python: trust=True) if "
+            "you trust where it came from"
+        )
     from .evaluation import load_sb3_model, model_observation, saved_spaces
     from .sb3 import make_vec_env
 
