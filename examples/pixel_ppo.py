@@ -5,8 +5,9 @@ beside it) on the native VecEnv with ``obs_mode="rgb"``, then a seeded evaluatio
 
 The images are drawn by the VecEnv's Rust threads (the GIL released), one per environment
 after every step. Prints training and evaluation throughput and the evaluation's success rate;
-saves the model (``panda-rapier eval --policy OUT/model.zip --trust-model-file`` evaluates it again: the image
-options are read off the model).
+saves the model (``panda-rapier eval --policy OUT/model.zip --trust-model-file`` evaluates it
+again: the image options are read off the model; a CNN runs on torch, so loading it unpickles
+the file, hence the flag).
 """
 
 from __future__ import annotations

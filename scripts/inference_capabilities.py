@@ -27,13 +27,13 @@ CHILD = r"""
 import sys, numpy as np, torch
 torch.set_num_threads(1)
 from stable_baselines3 import PPO
-from panda_rapier.inference import NetworkPolicy
+from panda_rapier.inference import PolicyNetwork
 path, rows_file, out = sys.argv[1:4]
 rows = np.load(rows_file)
 obs = {"achieved_goal": rows[:, :3], "desired_goal": rows[:, 3:6], "observation": rows[:, 6:]}
 torch_actions = np.asarray(PPO.load(path, device="cpu").predict(obs, deterministic=True)[0],
                            np.float32)
-np.savez(out, torch=torch_actions, native=NetworkPolicy.from_zip(path).act(rows),
+np.savez(out, torch=torch_actions, native=PolicyNetwork.from_zip(path).act(rows),
          capability=torch.backends.cpu.get_cpu_capability())
 """
 

@@ -37,7 +37,7 @@ from panda_rapier.imitation import collect
 from panda_rapier.inference import (
     NATIVE,
     TORCH,
-    NetworkPolicy,
+    PolicyNetwork,
     UnsupportedModelError,
     UntrustedModelError,
     load_policy,
@@ -66,7 +66,7 @@ def test_native_network_is_the_torch_policy_up_to_rounding(name: str) -> None:
     """The native float64 actions equal torch's float64 forward pass of the same weights to
     float32 rounding, and torch's float32 actions to its float32 error."""
     model = PPO.load(MODELS / name, device="cpu")
-    native = NetworkPolicy.from_zip(MODELS / name)
+    native = PolicyNetwork.from_zip(MODELS / name)
     assert native.algorithm == "actor-critic" and native.inference == NATIVE
     rows = _states(name)
     actions = native.act(rows)
@@ -76,7 +76,7 @@ def test_native_network_is_the_torch_policy_up_to_rounding(name: str) -> None:
     single, _ = model.predict(obs, deterministic=True)
     np.testing.assert_allclose(actions, single, atol=1e-4)
     # One policy, two ways in: a model in memory gives the same bits as its file.
-    np.testing.assert_array_equal(NetworkPolicy.from_sb3(model).act(rows), actions)
+    np.testing.assert_array_equal(PolicyNetwork.from_sb3(model).act(rows), actions)
     policy = model.policy.double()
     with th.no_grad():
         tensors = {k: th.as_tensor(v, dtype=th.float64) for k, v in obs.items()}
@@ -91,10 +91,10 @@ _DIGEST = r"""
 import hashlib, sys
 import numpy as np, torch
 torch.set_num_threads(1)
-from panda_rapier.inference import NetworkPolicy
+from panda_rapier.inference import PolicyNetwork
 from stable_baselines3 import PPO
 path, rows = sys.argv[1], np.load(sys.argv[2])
-native = NetworkPolicy.from_zip(path).act(rows)
+native = PolicyNetwork.from_zip(path).act(rows)
 torch_actions = PPO.load(path, device="cpu").predict(
     {"achieved_goal": rows[:, :3], "desired_goal": rows[:, 3:6], "observation": rows[:, 6:]},
     deterministic=True)[0]
@@ -145,13 +145,13 @@ def test_other_algorithms_and_options(tmp_path: Path, algorithm, kwargs, family)
     if family == "actor-critic":
         fit_normalizers(model.policy, rows)
     model.save(tmp_path / "m.zip")
-    native = NetworkPolicy.from_zip(tmp_path / "m.zip")
+    native = PolicyNetwork.from_zip(tmp_path / "m.zip")
     assert native.algorithm == family
     obs = {k: v for k, v in zip(("achieved_goal", "desired_goal", "observation"),
                                 np.split(rows, [3, 6], axis=1), strict=True)}  # fmt: skip
     expected, _ = model.predict(obs, deterministic=True)
     np.testing.assert_allclose(native.act(rows), expected, atol=1e-5)
-    np.testing.assert_array_equal(NetworkPolicy.from_sb3(model).act(rows), native.act(rows))
+    np.testing.assert_array_equal(PolicyNetwork.from_sb3(model).act(rows), native.act(rows))
 
 
 def test_unsupported_models_fall_back_to_stable_baselines3(tmp_path: Path) -> None:
@@ -159,9 +159,9 @@ def test_unsupported_models_fall_back_to_stable_baselines3(tmp_path: Path) -> No
                   policy_kwargs={"net_arch": [16], "activation_fn": th.nn.ELU})  # fmt: skip
     model.save(tmp_path / "elu.zip")
     with pytest.raises(UnsupportedModelError, match="ELU"):
-        NetworkPolicy.from_zip(tmp_path / "elu.zip")
+        PolicyNetwork.from_zip(tmp_path / "elu.zip")
     with pytest.raises(UnsupportedModelError):
-        NetworkPolicy.from_sb3(model)
+        PolicyNetwork.from_sb3(model)
     env_id = "panda_rapier/PickAndPlace-v0"
     with pytest.raises(UntrustedModelError, match=r"ELU.*trust-model-file"):
         load_policy(tmp_path / "elu.zip", env_id, {"arm": "kinematic"})
@@ -175,7 +175,7 @@ def test_unsupported_models_fall_back_to_stable_baselines3(tmp_path: Path) -> No
     config = env_config(env_id, arm="kinematic", max_episode_steps=5)
     assert evaluate(policy, config, 2).inference == TORCH
     with pytest.raises(InvalidArgumentError, match="not a stable-baselines3 model"):
-        NetworkPolicy.from_zip(tmp_path / "missing.zip")
+        PolicyNetwork.from_zip(tmp_path / "missing.zip")
 
 
 class _Payload:
@@ -205,10 +205,10 @@ def test_a_model_file_is_read_without_unpickling(tmp_path: Path) -> None:
                         value[":serialized:"] = payload
                 raw = json.dumps(data).encode()
             out.writestr(item, raw)
-    policy = NetworkPolicy.from_zip(hostile)
+    policy = PolicyNetwork.from_zip(hostile)
     assert not marker.exists()
     rows = _states("bc-dagger-PickAndPlace-v0.zip")[:5]
-    np.testing.assert_array_equal(policy.act(rows), NetworkPolicy.from_zip(source).act(rows))
+    np.testing.assert_array_equal(policy.act(rows), PolicyNetwork.from_zip(source).act(rows))
     # A hostile file the native network cannot act out: panda-rapier eval refuses it rather
     # than unpickling it.
     model = _tiny(PPO, n_steps=8, batch_size=8,
@@ -235,7 +235,7 @@ def test_a_model_file_is_read_without_unpickling(tmp_path: Path) -> None:
 
 
 def test_network_policy_refuses_bad_input() -> None:
-    policy = NetworkPolicy.from_zip(MODELS / "bc-dagger-PickAndPlace-v0.zip")
+    policy = PolicyNetwork.from_zip(MODELS / "bc-dagger-PickAndPlace-v0.zip")
     rows = np.zeros((2, policy.observation_dim), np.float32)
     rows[1, 3] = np.nan
     with pytest.raises(InvalidArgumentError, match="finite"):
@@ -310,14 +310,14 @@ def test_cli_eval_reports_its_inference(tmp_path: Path, capsys: pytest.CaptureFi
 
 
 def test_saved_network_round_trips_without_torch(tmp_path: Path) -> None:
-    policy = NetworkPolicy.from_zip(MODELS / "ppo-PickAndPlaceDense-v0.zip")
+    policy = PolicyNetwork.from_zip(MODELS / "ppo-PickAndPlaceDense-v0.zip")
     policy.save(tmp_path / "net.npz")
-    back = NetworkPolicy.load(tmp_path / "net.npz")
+    back = PolicyNetwork.load(tmp_path / "net.npz")
     rows = _states("ppo-PickAndPlaceDense-v0.zip")
     np.testing.assert_array_equal(back.act(rows), policy.act(rows))
     assert back.algorithm == policy.algorithm and back.source == policy.source
     with pytest.raises(InvalidArgumentError, match="cannot read"):
-        NetworkPolicy.load(MODELS / "README.md")
+        PolicyNetwork.load(MODELS / "README.md")
 
 
 #: Emulated CPUs (qemu-user): AVX2 and FMA without AVX-512; SSE4.2 without AVX.
@@ -328,13 +328,13 @@ _EMULATED = r"""
 import json, sys
 from pathlib import Path
 from panda_rapier.evaluation import check_reproduction, evaluate
-from panda_rapier.inference import NetworkPolicy
+from panda_rapier.inference import PolicyNetwork
 folder = Path(sys.argv[1])
 recorded = json.loads(Path(sys.argv[2]).read_text())
 results = {}
 for npz in sorted(folder.glob("*.npz")):
     config = json.loads(npz.with_suffix(".json").read_text())
-    report = evaluate(NetworkPolicy.load(npz), config, int(sys.argv[3]), num_envs=32)
+    report = evaluate(PolicyNetwork.load(npz), config, int(sys.argv[3]), num_envs=32)
     check = check_reproduction(recorded[npz.stem + ".zip"], report)
     results[npz.stem] = [check.kind, check.passed, check.details]
 assert "torch" not in sys.modules
@@ -351,9 +351,9 @@ def test_emulated_cpus_repeat_every_shipped_episode(tmp_path: Path, cpu: str) ->
     """Under qemu emulating a CPU without AVX-512 (Haswell) and one without AVX (Nehalem), the
     physics, glibc's maths routines and the native network pick their CPU-specific code for
     that CPU; every shipped model's first 32 episodes must still repeat exactly. (The weights
-    go through NetworkPolicy.save, so the emulated process never imports torch.)"""
+    go through PolicyNetwork.save, so the emulated process never imports torch.)"""
     for name in SHIPPED:
-        NetworkPolicy.from_zip(MODELS / name).save(tmp_path / f"{Path(name).stem}.npz")
+        PolicyNetwork.from_zip(MODELS / name).save(tmp_path / f"{Path(name).stem}.npz")
         run = read_run_info(MODELS / name)
         assert run is not None
         config = env_config(run["env_id"], **run["env_kwargs"])

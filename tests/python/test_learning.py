@@ -315,13 +315,13 @@ def test_shipped_model_reproduces_its_recorded_evaluation(name: str) -> None:
     must repeat exactly; elsewhere both rates must not fall significantly below the recorded
     ones (check_reproduction). The README row is the recorded evaluation's."""
     from panda_rapier.evaluation import check_reproduction
-    from panda_rapier.inference import NATIVE, NetworkPolicy
+    from panda_rapier.inference import NATIVE, PolicyNetwork
 
     recorded = json.loads((MODELS / "evaluations.json").read_text())[name]
     run = read_run_info(MODELS / name)
     assert run is not None
     config = env_config(run["env_id"], **run["env_kwargs"])
-    policy = NetworkPolicy.from_zip(MODELS / name)
+    policy = PolicyNetwork.from_zip(MODELS / name)
     report = evaluate(policy, config, REPRODUCTION_EPISODES, num_envs=32, first_seed=0)
     assert report.inference == recorded["inference"] == NATIVE
     check = check_reproduction(recorded, report)

@@ -19,7 +19,7 @@ What an evaluation reproduces, where: every report records its ``inference`` (ho
 computed) and its ``environment`` (:func:`evaluation_environment`: package version, CPU
 architecture, C library, and for torch inference torch's version and the CPU capability it
 uses, stable-baselines3's and numpy's versions). The physics, the scripted experts and
-:class:`~panda_rapier.inference.NetworkPolicy` (what ``panda-rapier eval`` acts out a saved
+:class:`~panda_rapier.inference.PolicyNetwork` (what ``panda-rapier eval`` acts out a saved
 model with) do the same arithmetic on every CPU of an architecture, so their episodes repeat
 bit for bit wherever the fields :data:`OUTCOME_FIELDS` names for that inference match. A torch
 model's float32 actions depend on the kernels torch picks for the CPU: its episodes repeat only
@@ -103,7 +103,7 @@ class EvaluationReport:
     #: Steps of idle environments (no episode left to run) among ``env_steps``.
     idle_env_steps: int = 0
     #: How the actions were computed: ``scripted``, ``native-f64``
-    #: (:class:`~panda_rapier.inference.NetworkPolicy`), ``torch-f32`` (a stable-baselines3
+    #: (:class:`~panda_rapier.inference.PolicyNetwork`), ``torch-f32`` (a stable-baselines3
     #: model's ``predict``) or ``python`` (any other function).
     inference: str = "python"
     #: What the episodes' outcomes depend on (:func:`evaluation_environment`).
@@ -310,14 +310,14 @@ StepHook = Callable[[np.ndarray, np.ndarray, list[int | None]], None]
 
 def _actor(policy: Any, spec: ObservationSpec) -> tuple[Actor, str, str]:
     """The policy as an :data:`Actor`, a name for it and its inference."""
-    from .inference import NATIVE, TORCH, NetworkPolicy
+    from .inference import NATIVE, TORCH, PolicyNetwork
 
     if isinstance(policy, ScriptedPolicy):
         native = policy._native
         return (lambda flat, _images: native.act(flat)), "scripted", "scripted"
-    if isinstance(policy, NetworkPolicy):
+    if isinstance(policy, PolicyNetwork):
         if spec.has_images:
-            raise InvalidArgumentError("a NetworkPolicy acts on state observations only")
+            raise InvalidArgumentError("a PolicyNetwork acts on state observations only")
         return (lambda flat, _images: policy.act(flat)), repr(policy), NATIVE
     predict = getattr(policy, "predict", None)
     if not callable(predict):

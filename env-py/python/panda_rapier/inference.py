@@ -1,9 +1,9 @@
-"""Trained policies acted out the same way on every CPU: :class:`NetworkPolicy`.
+"""Trained policies acted out the same way on every CPU: :class:`PolicyNetwork`.
 
 torch evaluates a network in float32 with matrix kernels it picks by the CPU's vector width
 (AVX-512, AVX2 or none), each summing in its own order, so the same saved model gives slightly
 different actions on different machines, and now and then a different episode outcome.
-:class:`NetworkPolicy` computes a stable-baselines3 policy's deterministic action with the
+:class:`PolicyNetwork` computes a stable-baselines3 policy's deterministic action with the
 native ``PolicyNetwork`` instead: float64, one fixed order of operations, portable ``tanh``,
 the same bits on every CPU (``panda_rapier_policies::network``). ``panda-rapier eval`` uses
 it for every model it can (``--inference torch`` asks for torch instead).
@@ -37,14 +37,14 @@ from .errors import InvalidArgumentError
 __all__ = [
     "NATIVE",
     "TORCH",
-    "NetworkPolicy",
     "NetworkSpec",
+    "PolicyNetwork",
     "UnsupportedModelError",
     "UntrustedModelError",
     "load_policy",
 ]
 
-#: The inference of :class:`NetworkPolicy`: float64, fixed order, CPU-independent.
+#: The inference of :class:`PolicyNetwork`: float64, fixed order, CPU-independent.
 NATIVE = "native-f64"
 #: A stable-baselines3 model's own ``predict``: torch float32, CPU-dependent kernels.
 TORCH = "torch-f32"
@@ -89,11 +89,11 @@ class NetworkSpec:
 
 
 class UnsupportedModelError(InvalidArgumentError):
-    """A saved model that :class:`NetworkPolicy` cannot act out (it says why); stable-baselines3
+    """A saved model that :class:`PolicyNetwork` cannot act out (it says why); stable-baselines3
     itself may still load it."""
 
 
-class NetworkPolicy:
+class PolicyNetwork:
     """A stable-baselines3 policy's deterministic action, computed by the native
     ``PolicyNetwork`` (float64, fixed order: the same bits on every CPU).
 
@@ -154,7 +154,7 @@ class NetworkPolicy:
         flattened in sorted order) or a flat array; ``deterministic=False`` is refused (the
         network holds no noise)."""
         if not deterministic:
-            raise InvalidArgumentError("NetworkPolicy acts deterministically only")
+            raise InvalidArgumentError("PolicyNetwork acts deterministically only")
         if isinstance(observation, Mapping):
             parts = [np.asarray(observation[k], dtype=np.float32) for k in sorted(observation)]
             single = parts[0].ndim == 1
@@ -165,12 +165,12 @@ class NetworkPolicy:
 
     def __repr__(self) -> str:
         return (
-            f"NetworkPolicy({self.algorithm}, {self.observation_dim} -> "
+            f"PolicyNetwork({self.algorithm}, {self.observation_dim} -> "
             f"{self.network.hidden_sizes} -> {self.action_dim}, from {self.source})"
         )
 
     @classmethod
-    def from_zip(cls, path: str | Path) -> NetworkPolicy:
+    def from_zip(cls, path: str | Path) -> PolicyNetwork:
         """Reads a stable-baselines3 model file by data alone (nothing in it is unpickled or
         run); :class:`UnsupportedModelError` says why a file cannot be acted out natively."""
         path = Path(path)
@@ -207,7 +207,7 @@ class NetworkPolicy:
         return cls(_build(state, family, activation, extractor, clip, low, high), family, str(path))
 
     @classmethod
-    def from_sb3(cls, model: Any) -> NetworkPolicy:
+    def from_sb3(cls, model: Any) -> PolicyNetwork:
         """The same network as a stable-baselines3 model in memory (its policy's weights, read
         once: later training does not change this copy)."""
         policy = model.policy
@@ -238,7 +238,7 @@ class NetworkPolicy:
             arrays[f"layer{i}_weight"], arrays[f"layer{i}_bias"] = weight, bias
         if spec.standardizer is not None:
             arrays["mean"], arrays["scale"] = spec.standardizer[0], spec.standardizer[1]
-        meta = {"format": "panda_rapier.NetworkPolicy/1", "algorithm": self.algorithm,
+        meta = {"format": "panda_rapier.PolicyNetwork/1", "algorithm": self.algorithm,
                 "source": self.source, "observation_dim": spec.observation_dim,
                 "layers": len(spec.layers), "activation": spec.activation, "output": spec.output,
                 "clip": None if spec.standardizer is None else spec.standardizer[2]}  # fmt: skip
@@ -247,13 +247,13 @@ class NetworkPolicy:
             np.savez(file, **cast(Any, arrays))
 
     @classmethod
-    def load(cls, path: str | Path) -> NetworkPolicy:
+    def load(cls, path: str | Path) -> PolicyNetwork:
         """Reads what :meth:`save` wrote (arrays only: ``allow_pickle=False``)."""
         try:
             with np.load(path, allow_pickle=False) as archive:
                 meta = json.loads(str(archive["meta"]))
-                if meta.get("format") != "panda_rapier.NetworkPolicy/1":
-                    raise InvalidArgumentError(f"{path}: not a saved NetworkPolicy")
+                if meta.get("format") != "panda_rapier.PolicyNetwork/1":
+                    raise InvalidArgumentError(f"{path}: not a saved PolicyNetwork")
                 layers = [
                     (archive[f"layer{i}_weight"], archive[f"layer{i}_bias"])
                     for i in range(int(meta["layers"]))
@@ -266,7 +266,7 @@ class NetworkPolicy:
                                    standardizer)  # fmt: skip
         except (OSError, KeyError, ValueError) as error:
             raise InvalidArgumentError(
-                f"cannot read a NetworkPolicy from {path}: {error}"
+                f"cannot read a PolicyNetwork from {path}: {error}"
             ) from error
         return cls(spec, str(meta["algorithm"]), str(meta["source"]))
 
@@ -415,7 +415,7 @@ def load_policy(
     inference: str = "auto",
     trust: bool = False,
 ) -> tuple[Any, dict[str, Any], dict[str, Any], str | None]:
-    """The policy of a saved model as ``panda-rapier eval`` runs it: a :class:`NetworkPolicy`
+    """The policy of a saved model as ``panda-rapier eval`` runs it: a :class:`PolicyNetwork`
     where the file allows (``inference="auto"`` or ``"native"``; ``"native"`` raises
     :class:`UnsupportedModelError` otherwise), else the stable-baselines3 model (``"torch"``,
     or the fallback). Loading with stable-baselines3 unpickles entries of the file, which can
@@ -431,7 +431,7 @@ def load_policy(
     fallback = None
     if inference != "torch":
         try:
-            policy = NetworkPolicy.from_zip(path)
+            policy = PolicyNetwork.from_zip(path)
         except UnsupportedModelError as why:
             if inference == "native":
                 raise
