@@ -176,35 +176,45 @@ fn arm_velocities(sim: &Simulation) -> Vec<f64> {
     sim.joint_velocities()[..7].to_vec()
 }
 
+/// A simulation without gravity.
+fn weightless() -> Simulation {
+    Simulation::new(SimConfig {
+        gravity: [0.0, 0.0, 0.0],
+        ..SimConfig::default()
+    })
+    .unwrap()
+}
+
+/// What each of `steps` physics steps adds to every entry of the joint velocities.
+fn velocity_increments(sim: &mut Simulation, steps: usize) -> Vec<Vec<f64>> {
+    let mut previous = sim.joint_velocities();
+    (0..steps)
+        .map(|_| {
+            sim.step();
+            let now = sim.joint_velocities();
+            let step = now.iter().zip(&previous).map(|(a, b)| a - b).collect();
+            previous = now;
+            step
+        })
+        .collect()
+}
+
 #[test]
 fn a_constant_torque_adds_the_same_velocity_every_step() {
     // Without gravity, a constant torque on every arm joint from rest: each physics step adds
     // about the same velocity (the mass matrix barely changes over a few steps). Issue 33: the
     // torque used to pile up, the increments growing linearly (1x, 2x, 3x, ...).
-    let config = SimConfig {
-        gravity: [0.0, 0.0, 0.0],
-        ..SimConfig::default()
-    };
-    let mut sim = Simulation::new(config).unwrap();
+    let mut sim = weightless();
     let torques = [2.0, -3.0, 1.5, 2.5, -0.5, 0.8, 0.3];
     for (dof, torque) in torques.iter().enumerate() {
         let joint = sim.model().actuated_joints()[dof];
         sim.set_joint_control(joint, JointControl::Torque(*torque))
             .unwrap();
     }
-    let mut previous = arm_velocities(&sim);
-    let mut increments = Vec::new();
-    for _ in 0..4 {
-        sim.step();
-        let now = arm_velocities(&sim);
-        increments.push(
-            now.iter()
-                .zip(&previous)
-                .map(|(a, b)| a - b)
-                .collect::<Vec<_>>(),
-        );
-        previous = now;
-    }
+    let increments: Vec<Vec<f64>> = velocity_increments(&mut sim, 4)
+        .into_iter()
+        .map(|step| step[..7].to_vec())
+        .collect();
     // Coupling (Coriolis) moves the small ones a little; a piled-up torque would double them.
     let largest = increments[0].iter().map(|v| v.abs()).fold(0.0, f64::max);
     for step in &increments[1..] {
@@ -507,22 +517,14 @@ fn mass_matrix_and_jacobian_are_consistent_with_kinematics() {
 fn a_constant_finger_force_adds_the_same_velocity_every_step() {
     // The prismatic path (body forces) beside the revolute one: no gravity, a closing force
     // on the gripper's drive from fully open, four physics steps before the fingers meet.
-    let config = SimConfig {
-        gravity: [0.0, 0.0, 0.0],
-        ..SimConfig::default()
-    };
-    let mut sim = Simulation::new(config).unwrap();
+    let mut sim = weightless();
     let finger = sim.model().joint_index("panda_finger_joint1").unwrap();
     sim.set_joint_control(finger, JointControl::Torque(-1.0))
         .unwrap();
-    let mut previous = sim.joint_velocities()[7];
-    let mut increments = Vec::new();
-    for _ in 0..4 {
-        sim.step();
-        let now = sim.joint_velocities()[7];
-        increments.push(now - previous);
-        previous = now;
-    }
+    let increments: Vec<f64> = velocity_increments(&mut sim, 4)
+        .iter()
+        .map(|step| step[7])
+        .collect();
     assert!(increments[0] < 0.0, "{increments:?}");
     for step in &increments[1..] {
         assert!(

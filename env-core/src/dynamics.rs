@@ -12,7 +12,7 @@
 use nalgebra::{DMatrix, Isometry3, Matrix3, Vector3};
 
 use crate::error::{Error, Result};
-use crate::model::{JointType, RobotModel};
+use crate::model::{urdf_pose, JointType, RobotModel};
 
 /// A link's mass, centre of mass (link frame) and inertia about it (link frame axes).
 #[derive(Debug, Clone, Copy)]
@@ -29,10 +29,8 @@ impl RobotModel {
             .iter()
             .map(|link| {
                 let i = &link.inertial;
-                let [x, y, z] = i.origin.xyz.0;
-                let [roll, pitch, yaw] = i.origin.rpy.0;
-                let rotation = nalgebra::UnitQuaternion::from_euler_angles(roll, pitch, yaw)
-                    .to_rotation_matrix();
+                let origin = urdf_pose(&i.origin);
+                let rotation = origin.rotation.to_rotation_matrix();
                 let t = &i.inertia;
                 let local = Matrix3::new(
                     t.ixx, t.ixy, t.ixz, //
@@ -41,7 +39,7 @@ impl RobotModel {
                 );
                 Inertial {
                     mass: i.mass.value,
-                    com: Vector3::new(x, y, z),
+                    com: origin.translation.vector,
                     inertia: rotation.matrix() * local * rotation.matrix().transpose(),
                 }
             })
@@ -76,7 +74,6 @@ impl RobotModel {
         gravity: &Vector3<f64>,
         base: &Isometry3<f64>,
     ) -> Result<Vec<f64>> {
-        self.validate_configuration(q)?;
         self.check_state("qd", qd)?;
         self.check_state("qdd", qdd)?;
         if !gravity.iter().all(|g| g.is_finite()) {
@@ -104,7 +101,6 @@ impl RobotModel {
     /// The joint-space mass matrix `M(q)` (`num_dofs x num_dofs`, symmetric positive
     /// definite), column `k` being the inverse dynamics of a unit acceleration of entry `k`.
     pub fn mass_matrix(&self, q: &[f64]) -> Result<DMatrix<f64>> {
-        self.validate_configuration(q)?;
         let poses = self.link_poses(q, &Isometry3::identity())?;
         let inertials = self.inertials();
         let n = self.num_dofs();

@@ -553,7 +553,7 @@ fn join_names<'a>(names: impl Iterator<Item = &'a str>) -> String {
     names.collect::<Vec<_>>().join(", ")
 }
 
-fn urdf_pose(pose: &urdf_rs::Pose) -> Isometry3<f64> {
+pub(crate) fn urdf_pose(pose: &urdf_rs::Pose) -> Isometry3<f64> {
     let [x, y, z] = pose.xyz.0;
     let [roll, pitch, yaw] = pose.rpy.0;
     // URDF rpy: fixed-axis roll about x, then pitch about y, then yaw about z.

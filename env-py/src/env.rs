@@ -384,12 +384,7 @@ impl NativeEnv {
             .model()
             .mass_matrix(&q)
             .map_err(|e| to_py(py, e))?;
-        let n = m.nrows();
-        let rows: Vec<f64> = (0..n)
-            .flat_map(|r| (0..n).map(move |c| (r, c)))
-            .map(|(r, c)| m[(r, c)])
-            .collect();
-        PyArray1::from_vec(py, rows).reshape([n, n])
+        row_major(py, &m)
     }
 
     /// The world-frame Jacobian (`6 x num_dofs`, linear rows first) of `point` in link `link`'s
@@ -413,12 +408,7 @@ impl NativeEnv {
         let j = model
             .jacobian(&name, &point, &q, sim.base_pose())
             .map_err(|e| to_py(py, e))?;
-        let cols = j.ncols();
-        let rows: Vec<f64> = (0..6)
-            .flat_map(|r| (0..cols).map(move |c| (r, c)))
-            .map(|(r, c)| j[(r, c)])
-            .collect();
-        PyArray1::from_vec(py, rows).reshape([6, cols])
+        row_major(py, &j)
     }
 
     /// Damped-least-squares IK for the TCP; see `panda_rapier.Robot.inverse_kinematics`.
@@ -471,4 +461,13 @@ impl NativeEnv {
         dict.set_item("angular_velocity", <[f64; 3]>::from(s.angular_velocity))?;
         Ok(dict)
     }
+}
+
+/// A matrix as a numpy array (nalgebra stores columns first, numpy rows: the transpose's
+/// storage is the matrix's rows).
+fn row_major<'py>(
+    py: Python<'py>,
+    m: &panda_rapier_core::nalgebra::DMatrix<f64>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    PyArray1::from_slice(py, m.transpose().as_slice()).reshape([m.nrows(), m.ncols()])
 }

@@ -188,13 +188,8 @@ class _Payload:
         return (open, (str(self.marker), "w"))
 
 
-def test_a_model_file_is_read_without_unpickling(tmp_path: Path) -> None:
-    """Every pickled entry of the data replaced by a payload that writes a file: the native
-    network reads the file without running it (stable-baselines3's load would)."""
-    marker = tmp_path / "ran"
-    payload = base64.b64encode(pickle.dumps(_Payload(marker))).decode()
-    source = MODELS / "bc-dagger-PickAndPlace-v0.zip"
-    hostile = tmp_path / "hostile.zip"
+def _poisoned(source: Path, hostile: Path, payload: str) -> Path:
+    """A copy of the model file ``source`` whose pickled data entries are all ``payload``."""
     with zipfile.ZipFile(source) as archive, zipfile.ZipFile(hostile, "w") as out:
         for item in archive.infolist():
             raw = archive.read(item)
@@ -205,6 +200,16 @@ def test_a_model_file_is_read_without_unpickling(tmp_path: Path) -> None:
                         value[":serialized:"] = payload
                 raw = json.dumps(data).encode()
             out.writestr(item, raw)
+    return hostile
+
+
+def test_a_model_file_is_read_without_unpickling(tmp_path: Path) -> None:
+    """Every pickled entry of the data replaced by a payload that writes a file: the native
+    network reads the file without running it (stable-baselines3's load would)."""
+    marker = tmp_path / "ran"
+    payload = base64.b64encode(pickle.dumps(_Payload(marker))).decode()
+    source = MODELS / "bc-dagger-PickAndPlace-v0.zip"
+    hostile = _poisoned(source, tmp_path / "hostile.zip", payload)
     policy = PolicyNetwork.from_zip(hostile)
     assert not marker.exists()
     rows = _states("bc-dagger-PickAndPlace-v0.zip")[:5]
@@ -214,19 +219,7 @@ def test_a_model_file_is_read_without_unpickling(tmp_path: Path) -> None:
     model = _tiny(PPO, n_steps=8, batch_size=8,
                   policy_kwargs={"net_arch": [16], "activation_fn": th.nn.ELU})  # fmt: skip
     model.save(tmp_path / "elu.zip")
-    with (
-        zipfile.ZipFile(tmp_path / "elu.zip") as archive,
-        zipfile.ZipFile(tmp_path / "hostile-elu.zip", "w") as out,
-    ):
-        for item in archive.infolist():
-            raw = archive.read(item)
-            if item.filename == "data":
-                data = json.loads(raw)
-                for value in data.values():
-                    if isinstance(value, dict) and ":serialized:" in value:
-                        value[":serialized:"] = payload
-                raw = json.dumps(data).encode()
-            out.writestr(item, raw)
+    _poisoned(tmp_path / "elu.zip", tmp_path / "hostile-elu.zip", payload)
     argv = ["eval", "--policy", str(tmp_path / "hostile-elu.zip"), "--episodes", "1", "--quiet"]
     assert main(argv) == 2
     assert not marker.exists()

@@ -43,6 +43,7 @@ import numpy as np
 
 from . import _common, _native
 from .errors import ConfigError, InvalidArgumentError
+from .inference import NATIVE, TORCH, PolicyNetwork
 from .pixels import DEFAULT_IMAGE_SIZE, ObservationSpec, observation_spec
 from .policy import ScriptedPolicy
 
@@ -310,8 +311,6 @@ StepHook = Callable[[np.ndarray, np.ndarray, list[int | None]], None]
 
 def _actor(policy: Any, spec: ObservationSpec) -> tuple[Actor, str, str]:
     """The policy as an :data:`Actor`, a name for it and its inference."""
-    from .inference import NATIVE, TORCH, PolicyNetwork
-
     if isinstance(policy, ScriptedPolicy):
         native = policy._native
         return (lambda flat, _images: native.act(flat)), "scripted", "scripted"
@@ -425,8 +424,8 @@ def evaluate(
 #: all match, the same evaluation gives the same episodes, bit for bit.
 OUTCOME_FIELDS: dict[str, tuple[str, ...]] = {
     "scripted": ("inference", "panda_rapier", "machine", "libc"),
-    "native-f64": ("inference", "panda_rapier", "machine", "libc"),
-    "torch-f32": (
+    NATIVE: ("inference", "panda_rapier", "machine", "libc"),
+    TORCH: (
         "inference", "panda_rapier", "machine", "libc", "cpu", "cpu_flags", "torch",
         "torch_cpu_capability", "stable_baselines3", "numpy",
     ),

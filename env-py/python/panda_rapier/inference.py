@@ -33,6 +33,7 @@ import numpy as np
 
 from . import _native
 from .errors import InvalidArgumentError
+from .policy import observation_rows
 
 __all__ = [
     "NATIVE",
@@ -130,18 +131,12 @@ class PolicyNetwork:
     def action_dim(self) -> int:
         return self.network.action_dim
 
-    def act(self, observations: np.ndarray) -> np.ndarray:
-        """Actions (``n x action_dim`` float32) for flat observations (``n x
-        observation_dim``, finite)."""
-        rows = np.ascontiguousarray(observations, dtype=np.float32)
-        if rows.ndim == 1:
-            return self.network.act(rows[None, :])[0]
-        if rows.ndim != 2:
-            raise InvalidArgumentError(
-                f"observations must be rows of {self.observation_dim} values, got shape "
-                f"{rows.shape}"
-            )
-        return self.network.act(rows)
+    def act(self, observations: Any) -> np.ndarray:
+        """Actions (``n x action_dim`` float32) for observations (flat rows ``n x
+        observation_dim`` or the goal dict, finite); one observation gives one action."""
+        rows, single = observation_rows(observations, self.observation_dim, "the network")
+        actions = self.network.act(rows)
+        return actions[0] if single else actions
 
     def predict(
         self,
@@ -150,18 +145,12 @@ class PolicyNetwork:
         episode_start: Any = None,
         deterministic: bool = True,
     ) -> tuple[np.ndarray, None]:
-        """stable-baselines3's ``predict``: the deterministic action for a goal dict (keys
-        flattened in sorted order) or a flat array; ``deterministic=False`` is refused (the
-        network holds no noise)."""
+        """stable-baselines3's ``predict``: the deterministic action(s) for a goal dict or flat
+        rows, single or batched; ``deterministic=False`` is refused (the network holds no
+        noise)."""
         if not deterministic:
             raise InvalidArgumentError("PolicyNetwork acts deterministically only")
-        if isinstance(observation, Mapping):
-            parts = [np.asarray(observation[k], dtype=np.float32) for k in sorted(observation)]
-            single = parts[0].ndim == 1
-            rows = np.concatenate([p.reshape(1 if single else p.shape[0], -1) for p in parts], 1)
-            actions = self.act(rows)
-            return (actions[0] if single else actions), None
-        return self.act(np.asarray(observation)), None
+        return self.act(observation), None
 
     def __repr__(self) -> str:
         return (
@@ -189,16 +178,8 @@ class PolicyNetwork:
         kwargs = data.get("policy_kwargs") or {}
         if not isinstance(kwargs, Mapping):
             raise UnsupportedModelError("unreadable policy_kwargs")
-        unknown = set(kwargs) - _KNOWN_POLICY_KWARGS - {":type:", ":serialized:"}
-        if unknown:
-            raise UnsupportedModelError(f"policy_kwargs {sorted(unknown)}")
-        if str(kwargs.get("squash_output", "False")) != "False":
-            raise UnsupportedModelError("squash_output")
-        activation = _activation_of(kwargs.get("activation_fn"), family)
-        extractor = _class_name(kwargs.get("features_extractor_class"))
-        clip = _clip_of(kwargs.get("features_extractor_kwargs"))
-        if family == "sac" and (data.get("use_sde") or str(kwargs.get("use_sde")) == "True"):
-            raise UnsupportedModelError("gSDE exploration (use_sde) in a SAC/TQC actor")
+        kwargs = {k: v for k, v in kwargs.items() if k not in (":type:", ":serialized:")}
+        activation, extractor, clip = _options(family, kwargs, data.get("use_sde"))
         space = data.get("observation_space") or {}
         if "uint8" in str(space.get("spaces", "")) + str(space.get("dtype", "")):
             raise UnsupportedModelError("image observations (a CNN encoder)")
@@ -215,14 +196,8 @@ class PolicyNetwork:
         family = _FAMILIES.get(module)
         if family is None:
             raise UnsupportedModelError(f"policy class {type(policy).__name__} from {module}")
-        if family == "sac" and getattr(model, "use_sde", False):
-            raise UnsupportedModelError("gSDE exploration (use_sde) in a SAC/TQC actor")
         kwargs = getattr(model, "policy_kwargs", {}) or {}
-        if set(kwargs) - _KNOWN_POLICY_KWARGS or kwargs.get("squash_output"):
-            raise UnsupportedModelError(f"policy_kwargs {sorted(kwargs)}")
-        activation = _activation_of(kwargs.get("activation_fn"), family)
-        extractor = _class_name(kwargs.get("features_extractor_class"))
-        clip = float((kwargs.get("features_extractor_kwargs") or {}).get("clip", 10.0))
+        activation, extractor, clip = _options(family, kwargs, getattr(model, "use_sde", False))
         space = model.action_space
         state = {k: v.detach().cpu() for k, v in policy.state_dict().items()}
         low, high = np.asarray(space.low, np.float32), np.asarray(space.high, np.float32)
@@ -269,6 +244,22 @@ class PolicyNetwork:
                 f"cannot read a PolicyNetwork from {path}: {error}"
             ) from error
         return cls(spec, str(meta["algorithm"]), str(meta["source"]))
+
+
+def _options(family: str, kwargs: Mapping[str, Any], use_sde: Any) -> tuple[str, str | None, float]:
+    """The activation, features extractor and standardisation clip of a policy's
+    ``policy_kwargs`` (objects of a model in memory, or the printed values a saved file keeps
+    in plain JSON); :class:`UnsupportedModelError` for options the network does not build."""
+    unknown = set(kwargs) - _KNOWN_POLICY_KWARGS
+    if unknown:
+        raise UnsupportedModelError(f"policy_kwargs {sorted(unknown)}")
+    if str(kwargs.get("squash_output", False)) == "True":
+        raise UnsupportedModelError("squash_output")
+    if family == "sac" and (str(use_sde) == "True" or str(kwargs.get("use_sde")) == "True"):
+        raise UnsupportedModelError("gSDE exploration (use_sde) in a SAC/TQC actor")
+    activation = _activation_of(kwargs.get("activation_fn"), family)
+    extractor = _class_name(kwargs.get("features_extractor_class"))
+    return activation, extractor, _clip_of(kwargs.get("features_extractor_kwargs"))
 
 
 def _class_name(value: Any) -> str | None:

@@ -86,6 +86,42 @@ def _real32(value: Any, what: str) -> np.ndarray:
         return array.astype(np.float32)
 
 
+def observation_rows(
+    observation: Any, dim: int, reader: str = "the scripted policy"
+) -> tuple[np.ndarray, bool]:
+    """Flat float32 rows ``(n, dim)`` of an observation (the goal dict, single or batched, or
+    flat rows) and whether it was one observation; ``reader`` names the policy in the hint
+    for dicts without the state."""
+    if isinstance(observation, Mapping):
+        missing = [key for key in _OBSERVATION_KEYS if key not in observation]
+        if missing:
+            hint = (
+                f" ({reader} reads the state: with image observations, make the "
+                "environment with obs_mode='state+rgb')"
+                if "observation" in missing
+                else ""
+            )
+            raise InvalidArgumentError(f"observation dict lacks the keys {missing}{hint}")
+        parts = [_real32(observation[key], key) for key in _OBSERVATION_KEYS]
+        single = parts[0].ndim == 1
+        try:
+            flat = np.concatenate([np.atleast_2d(part) for part in parts], axis=-1)
+        except ValueError as error:
+            raise InvalidArgumentError(
+                f"observation entries do not line up: {[p.shape for p in parts]}"
+            ) from error
+    else:
+        flat = _real32(observation, "observation")
+        single = flat.ndim == 1
+        flat = np.atleast_2d(flat)
+    if flat.ndim != 2 or flat.shape[1] != dim:
+        raise InvalidArgumentError(
+            f"observation must have {dim} entries per environment (dict of "
+            f"achieved_goal, desired_goal, observation, or flat), got shape {flat.shape}"
+        )
+    return np.ascontiguousarray(flat), single
+
+
 class ScriptedPolicy:
     """The scripted baseline for one environment configuration.
 
@@ -113,35 +149,7 @@ class ScriptedPolicy:
     def _flat(self, observation: Any) -> tuple[np.ndarray, bool]:
         """Flat float32 rows ``(n, observation_dim)`` and whether the input was one
         observation."""
-        dim = int(self._native.observation_dim)
-        if isinstance(observation, Mapping):
-            missing = [key for key in _OBSERVATION_KEYS if key not in observation]
-            if missing:
-                hint = (
-                    " (the scripted policy reads the state: with image observations, make the "
-                    "environment with obs_mode='state+rgb')"
-                    if "observation" in missing
-                    else ""
-                )
-                raise InvalidArgumentError(f"observation dict lacks the keys {missing}{hint}")
-            parts = [_real32(observation[key], key) for key in _OBSERVATION_KEYS]
-            single = parts[0].ndim == 1
-            try:
-                flat = np.concatenate([np.atleast_2d(part) for part in parts], axis=-1)
-            except ValueError as error:
-                raise InvalidArgumentError(
-                    f"observation entries do not line up: {[p.shape for p in parts]}"
-                ) from error
-        else:
-            flat = _real32(observation, "observation")
-            single = flat.ndim == 1
-            flat = np.atleast_2d(flat)
-        if flat.ndim != 2 or flat.shape[1] != dim:
-            raise InvalidArgumentError(
-                f"observation must have {dim} entries per environment (dict of "
-                f"achieved_goal, desired_goal, observation, or flat), got shape {flat.shape}"
-            )
-        return np.ascontiguousarray(flat), single
+        return observation_rows(observation, int(self._native.observation_dim))
 
     def predict(
         self,
