@@ -5,6 +5,7 @@ reproduction check that compares evaluations across machines."""
 from __future__ import annotations
 
 import base64
+import io
 import json
 import os
 import pickle
@@ -40,6 +41,8 @@ from panda_rapier.inference import (
     PolicyNetwork,
     UnsupportedModelError,
     UntrustedModelError,
+    _load_weights,
+    _rebuild_tensor,
     load_policy,
 )
 from panda_rapier.normalization import NormalizedFlatten, fit_normalizers
@@ -225,6 +228,86 @@ def test_a_model_file_is_read_without_unpickling(tmp_path: Path) -> None:
     assert not marker.exists()
     pickle.loads(base64.b64decode(payload)).close()  # the payload does work when unpickled
     assert marker.exists()
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_weights_are_read_without_torch_bit_for_bit(name: str) -> None:
+    """The state dict the torch-free reader rebuilds is torch.load's, array for array."""
+    raw = zipfile.ZipFile(MODELS / name).read("policy.pth")
+    ours = _load_weights(raw)
+    theirs = th.load(io.BytesIO(raw), map_location="cpu", weights_only=True)
+    assert list(ours) == list(theirs)
+    for key, tensor in theirs.items():
+        assert ours[key].dtype == tensor.numpy().dtype and ours[key].shape == tensor.shape
+        np.testing.assert_array_equal(ours[key], tensor.numpy())
+
+
+def test_weights_reader_rebuilds_views_and_dtypes() -> None:
+    base = th.arange(12.0).reshape(3, 4)
+    tensors = {"transposed": base.t(), "offset": base[1:, 2:], "scalar": th.tensor(True),
+               "empty": th.zeros(0, 3), "half": base.half(), "long": base.long()}  # fmt: skip
+    buffer = io.BytesIO()
+    th.save(tensors, buffer)
+    ours = _load_weights(buffer.getvalue())
+    for key, tensor in tensors.items():
+        assert ours[key].dtype == tensor.numpy().dtype and ours[key].shape == tensor.shape, key
+        np.testing.assert_array_equal(ours[key], tensor.numpy())
+
+
+def _replaced(raw: bytes, suffix: str, content: bytes) -> bytes:
+    """A copy of torch's zip serialisation ``raw`` with the entry ending in ``suffix`` replaced."""
+    out = io.BytesIO()
+    with zipfile.ZipFile(io.BytesIO(raw)) as archive, zipfile.ZipFile(out, "w") as copy:
+        for item in archive.infolist():
+            copy.writestr(item, content if item.filename.endswith(suffix) else archive.read(item))
+    return out.getvalue()
+
+
+def test_weights_that_name_a_callable_are_refused_unrun(tmp_path: Path) -> None:
+    """A policy.pth whose pickle calls ``open`` (a file writer) is refused by name; nothing
+    runs, and a damaged or overreaching tensor is a clear error, not a crash."""
+    marker = tmp_path / "ran"
+    buffer = io.BytesIO()
+    th.save({"weight": _Payload(marker)}, buffer)
+    with pytest.raises(UnsupportedModelError, match=r"names io\.open"):
+        _load_weights(buffer.getvalue())
+    assert not marker.exists()
+    source = MODELS / "bc-dagger-PickAndPlace-v0.zip"
+    hostile = tmp_path / "hostile-weights.zip"
+    with zipfile.ZipFile(source) as archive, zipfile.ZipFile(hostile, "w") as out:
+        for item in archive.infolist():
+            raw = archive.read(item)
+            if item.filename == "policy.pth":
+                pickled = zipfile.ZipFile(io.BytesIO(buffer.getvalue())).read("archive/data.pkl")
+                raw = _replaced(raw, "/data.pkl", pickled)
+            out.writestr(item, raw)
+    argv = ["eval", "--policy", str(hostile), "--episodes", "1", "--quiet"]
+    assert main(argv) == 2
+    assert not marker.exists()
+    buffer = io.BytesIO()
+    th.save({"weight": th.zeros(8)}, buffer)
+    with pytest.raises(InvalidArgumentError, match="unreadable policy weights"):
+        _load_weights(_replaced(buffer.getvalue(), "/data/0", b"\0" * 3))
+    with pytest.raises(InvalidArgumentError, match="past its storage"):
+        _rebuild_tensor(np.zeros(4, np.float32), 3, (2,), (1,), False)
+    with pytest.raises(InvalidArgumentError, match="too large"):
+        _rebuild_tensor(np.zeros(4, np.float32), 0, (1 << 20, 1 << 20), (0, 0), False)
+    with pytest.raises(InvalidArgumentError, match="unreadable policy weights: File is not a zip"):
+        _load_weights(b"not a zip")
+
+
+def test_shipped_model_evaluates_without_torch(tmp_path: Path) -> None:
+    """The base install (no torch, no stable-baselines3) evaluates a shipped model."""
+    script = (
+        "import sys; sys.modules['torch'] = None; sys.modules['stable_baselines3'] = None\n"
+        "from panda_rapier.cli import main\n"
+        f"raise SystemExit(main(['eval', '--policy', {str(MODELS / SHIPPED[0])!r}, "
+        "'--episodes', '4', '--num-envs', '4', '--quiet']))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=300)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert "native-f64" in done.stdout
 
 
 def test_network_policy_refuses_bad_input() -> None:

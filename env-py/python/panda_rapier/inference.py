@@ -9,7 +9,8 @@ the same bits on every CPU (``panda_rapier_policies::network``). ``panda-rapier 
 it for every model it can (``--inference torch`` asks for torch instead).
 
 A model file is read by data alone: the ``data`` entry as JSON (only its plain fields; the
-pickled ones are never unpickled) and the weights with ``torch.load(..., weights_only=True)``.
+pickled ones are never unpickled) and the weights by an unpickler that resolves only the
+names a state dict uses (no torch needed: a shipped model evaluates with the base install).
 Supported: PPO and A2C (``MlpPolicy`` / ``MultiInputPolicy``), SAC and TQC (their actor), TD3
 and DDPG, with ReLU or Tanh hidden layers, on state observations, with the default flattening
 features extractor or :class:`~panda_rapier.normalization.NormalizedFlatten`. Anything else
@@ -22,8 +23,11 @@ from __future__ import annotations
 import ast
 import io
 import json
+import math
+import pickle
 import re
 import zipfile
+from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,6 +51,9 @@ __all__ = [
 
 #: The inference of :class:`PolicyNetwork`: float64, fixed order, CPU-independent.
 NATIVE = "native-f64"
+#: Bound of an entry standardised by :class:`~panda_rapier.normalization.NormalizedFlatten`
+#: (defined here, where no torch is needed, and read by both).
+CLIP = 10.0
 #: A stable-baselines3 model's own ``predict``: torch float32, CPU-dependent kernels.
 TORCH = "torch-f32"
 
@@ -285,8 +292,6 @@ def _activation_of(value: Any, family: str) -> str:
 
 def _clip_of(value: Any) -> float:
     """The ``clip`` of ``features_extractor_kwargs`` (saved as its repr: read as a literal)."""
-    from .normalization import CLIP
-
     if value is None:
         return CLIP
     try:
@@ -311,20 +316,111 @@ def _bounds(space: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
     return bounds[0], bounds[1]
 
 
-def _load_weights(raw: bytes) -> dict[str, Any]:
+def _load_weights(raw: bytes) -> dict[str, np.ndarray]:
+    """The state dict of a ``policy.pth`` (torch's zip serialisation), read without torch:
+    its pickle names only ``collections.OrderedDict``, ``torch._utils._rebuild_tensor_v2`` and
+    torch's storage types, and an unpickler that resolves those three and nothing else (no
+    other callable can be named, so nothing in the file can run) rebuilds each tensor as a
+    numpy array from the archive's raw storage bytes."""
     try:
-        import torch
-    except ImportError as error:
-        raise ImportError(
-            "reading a model's weights needs torch: pip install 'panda-rapier[train]'"
-        ) from error
-    try:
-        state = torch.load(io.BytesIO(raw), map_location="cpu", weights_only=True)
-    except Exception as error:  # torch raises several unrelated types for a bad file
+        with zipfile.ZipFile(io.BytesIO(raw)) as archive:
+            pickles = [n for n in archive.namelist() if n.endswith("/data.pkl")]
+            if len(pickles) != 1:
+                raise InvalidArgumentError("policy.pth is not torch's zip serialisation")
+            prefix = pickles[0][: -len("data.pkl")]
+            order = "<"
+            if f"{prefix}byteorder" in archive.namelist():
+                order = ">" if archive.read(f"{prefix}byteorder").strip() == b"big" else "<"
+            unpickler = _WeightsUnpickler(io.BytesIO(archive.read(pickles[0])), archive,
+                                          prefix, order)  # fmt: skip
+            state = unpickler.load()
+    except (InvalidArgumentError, UnsupportedModelError):
+        raise
+    except Exception as error:  # a damaged pickle raises many unrelated types
         raise InvalidArgumentError(f"unreadable policy weights: {error}") from error
     if not isinstance(state, Mapping):
         raise InvalidArgumentError("policy.pth holds no state dict")
     return dict(state)
+
+
+#: The storage types of torch's serialisation that the weights reader accepts, as numpy dtypes.
+#: Far above any policy's layer; guards the reader against a file that claims a huge tensor.
+_MAX_TENSOR_ELEMENTS = 1 << 28
+
+_STORAGE_DTYPES = {
+    "FloatStorage": "f4",
+    "DoubleStorage": "f8",
+    "HalfStorage": "f2",
+    "LongStorage": "i8",
+    "IntStorage": "i4",
+    "ShortStorage": "i2",
+    "CharStorage": "i1",
+    "ByteStorage": "u1",
+    "BoolStorage": "b1",
+}
+
+
+@dataclass(frozen=True)
+class _StorageType:
+    """A torch storage type named by the pickle (data, not callable)."""
+
+    dtype: str
+
+
+class _WeightsUnpickler(pickle.Unpickler):
+    """Resolves the three names a state dict's pickle uses; any other name is refused."""
+
+    def __init__(self, file: io.BytesIO, archive: zipfile.ZipFile, prefix: str, order: str) -> None:
+        super().__init__(file)
+        self._archive, self._prefix, self._order = archive, prefix, order
+
+    def find_class(self, module: str, name: str) -> Any:
+        if (module, name) == ("collections", "OrderedDict"):
+            return OrderedDict
+        if (module, name) == ("torch._utils", "_rebuild_tensor_v2"):
+            return _rebuild_tensor
+        if module == "torch" and name in _STORAGE_DTYPES:
+            return _StorageType(_STORAGE_DTYPES[name])
+        raise UnsupportedModelError(
+            f"policy.pth names {module}.{name}, which a file of weights does not"
+        )
+
+    def persistent_load(self, pid: Any) -> np.ndarray:
+        if not (isinstance(pid, tuple) and len(pid) == 5 and pid[0] == "storage"):
+            raise InvalidArgumentError(f"policy.pth: unknown persistent id {pid!r:.80}")
+        _, storage_type, key, _location, count = pid
+        if (
+            not isinstance(storage_type, _StorageType)
+            or storage_type.dtype not in _STORAGE_DTYPES.values()
+            or not isinstance(key, str)
+            or not isinstance(count, int)
+        ):
+            raise InvalidArgumentError("policy.pth: malformed storage reference")
+        data = self._archive.read(f"{self._prefix}data/{key}")
+        dtype = np.dtype(storage_type.dtype).newbyteorder(self._order)
+        return np.frombuffer(data, dtype=dtype, count=count)
+
+
+def _rebuild_tensor(storage: Any, offset: Any, size: Any, stride: Any, *_: Any) -> np.ndarray:
+    """``torch._utils._rebuild_tensor_v2`` for a CPU tensor, as a numpy array gathered
+    from the storage by index (bounds-checked; no view of raw memory is made)."""
+    if not isinstance(storage, np.ndarray) or storage.ndim != 1 or storage.dtype.kind not in "fiub":
+        raise InvalidArgumentError("policy.pth: malformed tensor storage")
+    if not isinstance(offset, int):
+        raise InvalidArgumentError("policy.pth: malformed tensor")
+    if not (isinstance(size, tuple) and isinstance(stride, tuple) and len(size) == len(stride)):
+        raise InvalidArgumentError("policy.pth: malformed tensor shape")
+    if not all(isinstance(n, int) and n >= 0 for n in size + stride) or offset < 0:
+        raise InvalidArgumentError("policy.pth: negative tensor shape")
+    if math.prod(size) > _MAX_TENSOR_ELEMENTS:
+        raise InvalidArgumentError("policy.pth: a tensor too large for a policy")
+    extent = sum((n - 1) * s for n, s in zip(size, stride, strict=True))
+    if math.prod(size) and offset + extent >= storage.size:
+        raise InvalidArgumentError("policy.pth: a tensor reaches past its storage")
+    index = np.full(size, offset, dtype=np.int64)
+    for axis, (n, s) in enumerate(zip(size, stride, strict=True)):
+        index += (np.arange(n, dtype=np.int64) * s).reshape((-1,) + (1,) * (len(size) - axis - 1))
+    return storage[index].astype(storage.dtype.newbyteorder("="))
 
 
 def _linear_layers(state: Mapping[str, Any], prefix: str) -> list[tuple[np.ndarray, np.ndarray]]:

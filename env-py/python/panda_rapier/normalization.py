@@ -28,6 +28,8 @@ import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
+from .inference import CLIP
+
 __all__ = [
     "FitNormalizerCallback",
     "NormalizedFlatten",
@@ -38,8 +40,6 @@ __all__ = [
 #: Smallest scale a feature is divided by: entries that barely move in the expert's episodes
 #: (the cube's tilt) must not turn float noise into large inputs.
 MIN_SCALE = 0.01
-#: Bound of a normalised entry.
-CLIP = 10.0
 #: Episodes of the scripted expert the statistics are taken from, and the seed of the first.
 FIT_EPISODES = 64
 FIT_FIRST_SEED = 2_000_000_000
