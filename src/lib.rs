@@ -15,3 +15,8 @@ pub use panda_rapier_policies::tutorial as demo;
 #[doc = include_str!("../README.md")]
 #[cfg(doctest)]
 pub struct ReadmeDoctests;
+
+/// The Rust guide's examples (docs/guide/rust.md), compiled and run as doc tests.
+#[doc = include_str!("../docs/guide/rust.md")]
+#[cfg(doctest)]
+pub struct RustGuideDoctests;

@@ -1,4 +1,5 @@
-"""The README's Python examples and the scripts in examples/ run as documented (tiny budgets)."""
+"""The Python examples of the README and of the documentation pages (docs/), and the scripts
+in examples/, run as documented (tiny budgets)."""
 
 from __future__ import annotations
 
@@ -25,21 +26,35 @@ def run(*args: str | Path) -> str:
     return result.stdout
 
 
-def readme_python_blocks() -> list[str]:
-    text = (ROOT / "README.md").read_text()
-    return re.findall(r"```python\n(.*?)```", text, flags=re.DOTALL)
+def python_blocks(page: Path) -> list[str]:
+    return re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.DOTALL)
+
+
+#: Every page with Python examples: the README and the documentation's Markdown sources.
+PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+
+
+def documented_python_blocks() -> list[tuple[str, str]]:
+    """(where, code) of every Python example, each distinct block once (the README repeats
+    some of the quick start's)."""
+    seen: dict[str, str] = {}
+    for page in PAGES:
+        for i, block in enumerate(python_blocks(page)):
+            seen.setdefault(block, f"{page.relative_to(ROOT)}#{i}")
+    return [(where, block) for block, where in seen.items()]
 
 
 def test_readme_has_python_examples() -> None:
-    assert len(readme_python_blocks()) >= 3
+    assert len(python_blocks(ROOT / "README.md")) >= 3
 
 
-@pytest.mark.parametrize("index", range(len(readme_python_blocks())))
-def test_readme_python_example_runs(index: int, tmp_path: Path) -> None:
-    block = readme_python_blocks()[index]
+@pytest.mark.parametrize(
+    "where,block", documented_python_blocks(), ids=[w for w, _ in documented_python_blocks()]
+)
+def test_documented_python_example_runs(where: str, block: str, tmp_path: Path) -> None:
     if "import ray" in block:
-        pytest.importorskip("ray", reason="the README's Ray examples need '.[rllib]'")
-    script = tmp_path / f"readme_{index}.py"
+        pytest.importorskip("ray", reason=f"the Ray example {where} needs '.[rllib]'")
+    script = tmp_path / "example.py"
     script.write_text(block)
     subprocess.run([sys.executable, script], cwd=tmp_path, check=True, timeout=600)
 

@@ -246,7 +246,7 @@ def ppo_config(
     unless ``env_kwargs`` sets ``reward_weights``. ``training`` overrides any
     ``PPOConfig.training`` argument (``train_batch_size_per_learner``, ``lr``, ...).
     Without the recipe's observation normaliser and gripper exploration floor this config is
-    not the recipe's equal: see the README.
+    not the recipe's equal: see docs/guide/ray.md.
     """
     options = _recipe_env_kwargs(env_id, env_kwargs)
     settings: dict[str, Any] = {
