@@ -31,7 +31,7 @@ from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, cast
+from typing import Any, Literal, cast
 
 import numpy as np
 
@@ -328,7 +328,7 @@ def _load_weights(raw: bytes) -> dict[str, np.ndarray]:
             if len(pickles) != 1:
                 raise InvalidArgumentError("policy.pth is not torch's zip serialisation")
             prefix = pickles[0][: -len("data.pkl")]
-            order = "<"
+            order: Literal["<", ">"] = "<"
             if f"{prefix}byteorder" in archive.namelist():
                 order = ">" if archive.read(f"{prefix}byteorder").strip() == b"big" else "<"
             unpickler = _WeightsUnpickler(io.BytesIO(archive.read(pickles[0])), archive,
@@ -370,7 +370,9 @@ class _StorageType:
 class _WeightsUnpickler(pickle.Unpickler):
     """Resolves the three names a state dict's pickle uses; any other name is refused."""
 
-    def __init__(self, file: io.BytesIO, archive: zipfile.ZipFile, prefix: str, order: str) -> None:
+    def __init__(
+        self, file: io.BytesIO, archive: zipfile.ZipFile, prefix: str, order: Literal["<", ">"]
+    ) -> None:
         super().__init__(file)
         self._archive, self._prefix, self._order = archive, prefix, order
 
