@@ -49,7 +49,9 @@ def test_id_does_what_its_version_promised(env_id: str) -> None:
     if os.environ.get("PANDA_RAPIER_UPDATE_FINGERPRINTS") == "1":
         record = _recorded()
         record[env_id] = now
-        RECORD.write_text(json.dumps(record, indent=None, sort_keys=True).replace("]], ", "]],\n") + "\n")
+        RECORD.write_text(
+            json.dumps(record, indent=None, sort_keys=True).replace("]], ", "]],\n") + "\n"
+        )
         return
     recorded = _recorded().get(env_id)
     assert recorded is not None, f"{env_id} has no fingerprint: record it (docs/guide/versions.md)"
@@ -58,8 +60,10 @@ def test_id_does_what_its_version_promised(env_id: str) -> None:
         "version or re-record before its first release (docs/guide/versions.md)"
     )
     for key, value in recorded["first_observation"].items():
-        np.testing.assert_allclose(now["first_observation"][key], value, rtol=0, atol=2e-6,
-                                   err_msg=f"{env_id}: first observation {key!r} moved")  # fmt: skip
+        moved = f"{env_id}: first observation {key!r} moved"
+        np.testing.assert_allclose(
+            now["first_observation"][key], value, rtol=0, atol=2e-6, err_msg=moved
+        )
 
 
 def test_every_id_has_a_fingerprint() -> None:

@@ -4,7 +4,9 @@ directory, resume, recipes, curves and models table."""
 
 from __future__ import annotations
 
+import base64
 import json
+import pickle
 import zipfile
 from pathlib import Path
 
@@ -235,6 +237,36 @@ def test_train_init_from_starts_from_another_models_weights(tmp_path: Path) -> N
     assert main([*joints, "--out", str(tmp_path / "c"),
                  "--init-from", str(tmp_path / "a" / "model.zip")]) == 2  # fmt: skip
     assert main([*common, "--out", str(tmp_path / "d"), "--init-from", "none.zip"]) == 2
+    # The file is read by data: a model whose pickled entries would write a file when
+    # unpickled gives its weights and runs nothing.
+    marker = tmp_path / "ran"
+    payload = base64.b64encode(pickle.dumps(_WritesAFile(marker))).decode()
+    hostile = tmp_path / "hostile.zip"
+    with zipfile.ZipFile(tmp_path / "a" / "model.zip") as archive, \
+            zipfile.ZipFile(hostile, "w") as out:  # fmt: skip
+        for item in archive.infolist():
+            raw = archive.read(item)
+            if item.filename == "data":
+                data = json.loads(raw)
+                for value in data.values():
+                    if isinstance(value, dict) and ":serialized:" in value:
+                        value[":serialized:"] = payload
+                raw = json.dumps(data).encode()
+            out.writestr(item, raw)
+    assert main([*common, "--out", str(tmp_path / "e"), "--init-from", str(hostile)]) == 0
+    assert not marker.exists()
+    pickle.loads(base64.b64decode(payload)).close()  # what unpickling it would have done
+    assert marker.exists()
+
+
+class _WritesAFile:
+    """Pickles to a call that creates a file: what a hostile model file would hold."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self):
+        return (open, (str(self.marker), "w"))
 
 
 def test_recipes_are_rl_zoo3_files_and_bad_ones_are_refused(tmp_path: Path) -> None:

@@ -47,6 +47,8 @@ __all__ = [
     "UnsupportedModelError",
     "UntrustedModelError",
     "load_policy",
+    "read_model_file",
+    "space_mismatch",
 ]
 
 #: The inference of :class:`PolicyNetwork`: float64, fixed order, CPU-independent.
@@ -169,15 +171,7 @@ class PolicyNetwork:
     def from_zip(cls, path: str | Path) -> PolicyNetwork:
         """Reads a stable-baselines3 model file by data alone (nothing in it is unpickled or
         run); :class:`UnsupportedModelError` says why a file cannot be acted out natively."""
-        path = Path(path)
-        try:
-            with zipfile.ZipFile(path) as archive:
-                data = json.loads(archive.read("data"))
-                weights = archive.read("policy.pth")
-        except (OSError, KeyError, ValueError, zipfile.BadZipFile) as error:
-            raise InvalidArgumentError(
-                f"{path} is not a stable-baselines3 model file: {error}"
-            ) from error
+        data, state = read_model_file(path)
         module = str(data.get("policy_class", {}).get("__module__", ""))
         family = _FAMILIES.get(module)
         if family is None:
@@ -191,7 +185,6 @@ class PolicyNetwork:
         if "uint8" in str(space.get("spaces", "")) + str(space.get("dtype", "")):
             raise UnsupportedModelError("image observations (a CNN encoder)")
         low, high = _bounds(data.get("action_space") or {})
-        state = _load_weights(weights)
         return cls(_build(state, family, activation, extractor, clip, low, high), family, str(path))
 
     @classmethod
@@ -314,6 +307,50 @@ def _bounds(space: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
     except (KeyError, ValueError) as error:
         raise UnsupportedModelError(f"unreadable action bounds: {error}") from error
     return bounds[0], bounds[1]
+
+
+def space_mismatch(
+    data: Mapping[str, Any], observation_space: Any, action_space: Any
+) -> str | None:
+    """What differs between the spaces a model file's ``data`` (as :func:`read_model_file` reads
+    it) records and the given ones, from the recorded text alone; ``None`` if nothing does."""
+    from gymnasium import spaces
+
+    saved = data.get("observation_space") or {}
+    if isinstance(observation_space, spaces.Dict):
+        if saved.get("spaces") != str(observation_space.spaces):
+            return f"observation space {saved.get('spaces')} is not {observation_space.spaces}"
+    elif list(saved.get("_shape") or []) != list(observation_space.shape or ()):
+        return f"observation shape {saved.get('_shape')} is not {observation_space.shape}"
+    try:
+        low, high = _bounds(data.get("action_space") or {})
+    except UnsupportedModelError as error:
+        return str(error)
+    if not (
+        low.shape == action_space.shape
+        and np.array_equal(low, action_space.low)
+        and np.array_equal(high, action_space.high)
+    ):
+        return f"action space Box({low}, {high}) is not {action_space}"
+    return None
+
+
+def read_model_file(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """A stable-baselines3 model file read by data alone: the ``data`` entry's JSON (its
+    pickled fields stay unread strings) and the policy's state dict as numpy arrays (through an
+    unpickler that resolves only the names a state dict uses). Nothing in the file is run."""
+    path = Path(path)
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+            weights = archive.read("policy.pth")
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile) as error:
+        raise InvalidArgumentError(
+            f"{path} is not a stable-baselines3 model file: {error}"
+        ) from error
+    if not isinstance(data, dict):
+        raise InvalidArgumentError(f"{path} is not a stable-baselines3 model file: no data")
+    return data, _load_weights(weights)
 
 
 def _load_weights(raw: bytes) -> dict[str, np.ndarray]:

@@ -497,7 +497,7 @@ def train(
             **model_kwargs(algo, recipe),
         )
         if init_from is not None:
-            _load_weights(model, algorithm, Path(init_from))
+            _load_weights(model, Path(init_from))
             say(f"starting from the weights of {init_from}")
     recorder = _Recorder(
         out,
@@ -535,22 +535,29 @@ def train(
     return run
 
 
-def _load_weights(model: Any, algorithm: Any, path: Path) -> None:
-    """Copies the policy weights (normaliser buffers included) of the model at ``path`` into
-    ``model``; different spaces or architectures are an :class:`InvalidArgumentError`."""
-    source = algorithm.load(path, device="cpu")
-    for what in ("observation_space", "action_space"):
-        if getattr(source, what) != getattr(model, what):
-            raise InvalidArgumentError(
-                f"--init-from {path}: its {what.replace('_', ' ')} {getattr(source, what)} "
-                f"differs from this environment's {getattr(model, what)}"
-            )
-    try:
-        model.policy.load_state_dict(source.policy.state_dict())
-    except RuntimeError as error:
+def _load_weights(model: Any, path: Path) -> None:
+    """Copies the policy weights (normaliser buffers included) of the model file at ``path``
+    into ``model``, reading the file by data alone (:func:`~panda_rapier.inference.
+    read_model_file`: nothing in it is unpickled); other spaces or another architecture are an
+    :class:`InvalidArgumentError`."""
+    import torch as th
+
+    from .inference import read_model_file, space_mismatch
+
+    data, weights = read_model_file(path)
+    mismatch = space_mismatch(data, model.observation_space, model.action_space)
+    if mismatch is not None:
+        raise InvalidArgumentError(f"--init-from {path}: its {mismatch} (this environment's)")
+    target = model.policy.state_dict()
+    shapes = {k: tuple(v.shape) for k, v in weights.items()}
+    wanted = {k: tuple(v.shape) for k, v in target.items()}
+    if shapes != wanted:
+        differ = sorted(set(shapes.items()) ^ set(wanted.items()))[:4]
         raise InvalidArgumentError(
-            f"--init-from {path}: its network does not match the recipe's: {error}"
-        ) from error
+            f"--init-from {path}: its network does not match the recipe's (first differences, "
+            f"name and shape: {differ})"
+        )
+    model.policy.load_state_dict({k: th.as_tensor(v) for k, v in weights.items()})
 
 
 def _cpu_count() -> int:
