@@ -7,8 +7,10 @@ from __future__ import annotations
 import base64
 import json
 import pickle
+import shutil
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -242,17 +244,8 @@ def test_train_init_from_starts_from_another_models_weights(tmp_path: Path) -> N
     marker = tmp_path / "ran"
     payload = base64.b64encode(pickle.dumps(_WritesAFile(marker))).decode()
     hostile = tmp_path / "hostile.zip"
-    with zipfile.ZipFile(tmp_path / "a" / "model.zip") as archive, \
-            zipfile.ZipFile(hostile, "w") as out:  # fmt: skip
-        for item in archive.infolist():
-            raw = archive.read(item)
-            if item.filename == "data":
-                data = json.loads(raw)
-                for value in data.values():
-                    if isinstance(value, dict) and ":serialized:" in value:
-                        value[":serialized:"] = payload
-                raw = json.dumps(data).encode()
-            out.writestr(item, raw)
+    shutil.copy(tmp_path / "a" / "model.zip", hostile)
+    _poison(hostile, payload)
     assert main([*common, "--out", str(tmp_path / "e"), "--init-from", str(hostile)]) == 0
     assert not marker.exists()
     pickle.loads(base64.b64decode(payload)).close()  # what unpickling it would have done
@@ -327,8 +320,93 @@ def test_train_tqc_with_her_saves_its_replay_buffer_and_resumes(tmp_path: Path) 
               "--eval-every", "0", "--checkpoint-every", "200"]  # fmt: skip
     assert main([*common, "--timesteps", "200"]) == 0
     assert (out / "checkpoints" / "replay_buffer.pkl").is_file()
+    # A replay buffer this user's runs did not sign (here: the recorded signature altered) is
+    # not unpickled without --trust-model-file.
+    state_file = out / "checkpoints" / "state.json"
+    state = json.loads(state_file.read_text())
+    signed = state["replay_buffer_hmac"]
+    state_file.write_text(json.dumps({**state, "replay_buffer_hmac": "0" * 64}))
+    assert main([*common, "--timesteps", "400", "--resume"]) == 2
+    state_file.write_text(json.dumps({**state, "replay_buffer_hmac": signed}))
     assert main([*common, "--timesteps", "400", "--resume"]) == 0
     assert json.loads((out / "run.json").read_text())["env_steps"] == 400
+    state = json.loads(state_file.read_text())
+    state_file.write_text(json.dumps({**state, "replay_buffer_hmac": "0" * 64}))
+    assert main([*common, "--timesteps", "600", "--resume", "--trust-model-file"]) == 0
+    assert json.loads((out / "run.json").read_text())["env_steps"] == 600
+
+
+def test_checkpoint_is_restored_by_data_exactly(tmp_path: Path) -> None:
+    """Rebuilt from the recipe and filled by panda_rapier.checkpoint.restore, the model holds
+    exactly what stable-baselines3's own load gives (policy, optimizer state, counters), and a
+    checkpoint whose pickled entries would write a file runs nothing."""
+    from panda_rapier import checkpoint
+    from panda_rapier.training import load_recipe, model_kwargs
+
+    conf = _write_recipe(tmp_path / "ppo.yml", "ppo", {
+        "n_envs": 4, "n_steps": 32, "batch_size": 64, "n_epochs": 2,
+        "policy_kwargs": "dict(features_extractor_class=NormalizedFlatten, net_arch=[32])",
+    })  # fmt: skip
+    out = tmp_path / "run"
+    assert main(["train", "--algo", "ppo", "--env-id", "panda_rapier/PickAndPlaceDense-v0",
+                 "--out", str(out), "--conf", str(conf), "--quiet", "--eval-every", "0",
+                 "--checkpoint-every", "256", "--timesteps", "256"]) == 0  # fmt: skip
+    folder = out / "checkpoints"
+    reference = PPO.load(folder / checkpoint.MODEL, device="cpu")
+    marker = tmp_path / "ran"
+    payload = base64.b64encode(pickle.dumps(_WritesAFile(marker))).decode()
+    _poison(folder / checkpoint.MODEL, payload)
+
+    recipe = load_recipe("ppo", "panda_rapier/PickAndPlaceDense-v0", conf)
+    env = make_vec_env("panda_rapier/PickAndPlaceDense-v0", n_envs=4)
+    model = PPO("MultiInputPolicy", env, device="cpu", **model_kwargs("ppo", recipe))
+    checkpoint.restore(model, folder)
+    assert not marker.exists()
+    assert (model.num_timesteps, model._n_updates) == (
+        reference.num_timesteps,
+        reference._n_updates,
+    )
+    assert model.num_timesteps == 256
+    for mine, theirs in ((model.policy, reference.policy),
+                         (model.policy.optimizer, reference.policy.optimizer)):  # fmt: skip
+        flat_mine, flat_theirs = _flatten(mine.state_dict()), _flatten(theirs.state_dict())
+        assert flat_mine.keys() == flat_theirs.keys()
+        for key, value in flat_theirs.items():
+            if isinstance(value, th.Tensor):
+                assert th.equal(flat_mine[key], value), key
+            else:
+                assert flat_mine[key] == value, key
+    other = PPO("MultiInputPolicy", env, device="cpu", policy_kwargs={"net_arch": [8]})
+    with pytest.raises(InvalidArgumentError, match="does not fit the run's recipe"):
+        checkpoint.restore(other, folder)
+    env.close()
+
+
+def _flatten(tree: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(tree, dict):
+        return {
+            k: v for key, sub in tree.items() for k, v in _flatten(sub, f"{prefix}{key}/").items()
+        }
+    if isinstance(tree, list | tuple):
+        return {
+            k: v for i, sub in enumerate(tree) for k, v in _flatten(sub, f"{prefix}{i}/").items()
+        }
+    return {prefix: tree}
+
+
+def _poison(model_file: Path, payload: str) -> None:
+    """Replaces every pickled entry of the model file's data with ``payload``, in place."""
+    with zipfile.ZipFile(model_file) as archive:
+        entries = [(item, archive.read(item)) for item in archive.infolist()]
+    with zipfile.ZipFile(model_file, "w") as out:
+        for item, raw in entries:
+            if item.filename == "data":
+                data = json.loads(raw)
+                for value in data.values():
+                    if isinstance(value, dict) and ":serialized:" in value:
+                        value[":serialized:"] = payload
+                raw = json.dumps(data).encode()
+            out.writestr(item, raw)
 
 
 MODELS = Path(__file__).resolve().parents[2] / "models"

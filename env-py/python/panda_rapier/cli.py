@@ -236,6 +236,12 @@ def _parser() -> argparse.ArgumentParser:
         "fresh network: fine-tuning, e.g. on another arm model or from a cloned policy",
     )
     train.add_argument(
+        "--trust-model-file",
+        action="store_true",
+        help="with --resume: load a replay buffer this user's runs did not write (it is "
+        "unpickled, which may run code from it); checkpoints are otherwise read by data",
+    )
+    train.add_argument(
         "--threads", type=_positive, default=None, help="environment threads (default: all)"
     )
     train.add_argument(
@@ -373,6 +379,7 @@ def _run_train(args: argparse.Namespace) -> int:
         checkpoint_every=args.checkpoint_every,
         resume=args.resume,
         init_from=args.init_from,
+        trust=args.trust_model_file,
         torch_threads=args.torch_threads,
         progress=not args.quiet,
         command=["panda-rapier", *args.argv],

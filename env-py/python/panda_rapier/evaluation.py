@@ -232,11 +232,17 @@ def _algorithm_of(path: Path) -> str | None:
     return None
 
 
-def load_sb3_model(path: str | Path, env: Any = None, algo: str | None = None) -> Any:
+def load_sb3_model(
+    path: str | Path, env: Any = None, algo: str | None = None, *, trust: bool = False
+) -> Any:
     """Loads a saved stable-baselines3 (or sb3-contrib) model on the CPU. The algorithm is read
     from the file unless ``algo`` names it; ``env`` (a VecEnv with the model's spaces) is
-    needed by models saved with a hindsight replay buffer."""
+    needed by models saved with a hindsight replay buffer. stable-baselines3 unpickles entries
+    of the file, which can run code a hostile file carries: without ``trust=True`` this raises
+    :class:`~panda_rapier.inference.UntrustedModelError` (to act a model out without trusting
+    it, use :class:`~panda_rapier.inference.PolicyNetwork`)."""
     path = Path(path)
+    _require_trust(path, trust)
     if not path.is_file():
         raise InvalidArgumentError(f"no model file at {path}")
     algo = (algo or _algorithm_of(path) or "").lower()
@@ -262,14 +268,27 @@ def load_sb3_model(path: str | Path, env: Any = None, algo: str | None = None) -
     return algorithm.load(path, env=env, device="cpu")
 
 
-def saved_spaces(model_path: str | Path) -> tuple[Any, Any]:
+def saved_spaces(model_path: str | Path, *, trust: bool = False) -> tuple[Any, Any]:
     """The observation and action spaces saved in a stable-baselines3 model file (``None``
-    each where absent), read without building the model."""
+    each where absent), read without building the model; they are pickled in the file, so
+    this needs ``trust=True`` as :func:`load_sb3_model` does."""
     from stable_baselines3.common.save_util import load_from_zip_file
 
+    _require_trust(Path(model_path), trust)
     data, _, _ = load_from_zip_file(Path(model_path), load_data=True, device="cpu")
     data = data or {}
     return data.get("observation_space"), data.get("action_space")
+
+
+def _require_trust(path: Path, trust: bool) -> None:
+    if not trust:
+        from .inference import UntrustedModelError
+
+        raise UntrustedModelError(
+            f"{path}: loading it with stable-baselines3 unpickles entries of the file, which "
+            "can run code it carries; pass trust=True (--trust-model-file) if you trust where "
+            "it came from"
+        )
 
 
 def model_observation(space: Any) -> dict[str, Any]:

@@ -48,6 +48,7 @@ __all__ = [
     "UntrustedModelError",
     "load_policy",
     "read_model_file",
+    "read_torch_entries",
     "space_mismatch",
 ]
 
@@ -353,6 +354,21 @@ def read_model_file(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndar
     return data, _load_weights(weights)
 
 
+def read_torch_entries(path: str | Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Every torch entry of a stable-baselines3 model file (``policy.pth``, the optimizers'
+    ``*.optimizer.pth``, ``pytorch_variables.pth``), each read by data alone as
+    :func:`read_model_file` reads the policy, keyed by its name without ``.pth``, with the
+    ``data`` entry's JSON."""
+    path = Path(path)
+    data, _ = read_model_file(path)
+    with zipfile.ZipFile(path) as archive:
+        return data, {
+            name[: -len(".pth")]: _load_weights(archive.read(name))
+            for name in archive.namelist()
+            if name.endswith(".pth")
+        }
+
+
 def _load_weights(raw: bytes) -> dict[str, np.ndarray]:
     """The state dict of a ``policy.pth`` (torch's zip serialisation), read without torch:
     its pickle names only ``collections.OrderedDict``, ``torch._utils._rebuild_tensor_v2`` and
@@ -575,7 +591,7 @@ def load_policy(
     from .evaluation import load_sb3_model, model_observation, saved_spaces
     from .sb3 import make_vec_env
 
-    observation_space, action_space = saved_spaces(path)
+    observation_space, action_space = saved_spaces(path, trust=True)
     # The action mode the model acts in, from its action space.
     shape = getattr(action_space, "shape", None)
     overrides.setdefault("control_mode", "joints" if shape == (8,) else "ee")
@@ -583,4 +599,5 @@ def load_policy(
     # Loaded with an environment of the evaluation's spaces: a mismatch is reported by
     # stable-baselines3, and hindsight replay buffers need one.
     env = make_vec_env(env_id, n_envs=1, **overrides, **observation)
-    return load_sb3_model(path, env=env, algo=algo), overrides, observation, fallback
+    model = load_sb3_model(path, env=env, algo=algo, trust=True)
+    return model, overrides, observation, fallback

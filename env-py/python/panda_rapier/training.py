@@ -16,8 +16,9 @@ and writes everything to its output directory:
 - ``evaluations.jsonl``: one line per periodic evaluation (env steps, wall time, success rate
   with its 95 % interval, placed rate, mean return) on validation seeds, which neither the
   training episodes nor the final test seeds (``panda-rapier eval``'s default, 0 to 999) use;
-- ``tensorboard/`` (``tensorboard --logdir DIR``) and ``checkpoints/latest.zip`` with
-  ``checkpoints/state.json`` for ``--resume``;
+- ``tensorboard/`` (``tensorboard --logdir DIR``) and ``checkpoints/`` for ``--resume``
+  (:mod:`panda_rapier.checkpoint`: read by data, nothing in it unpickled but a replay buffer
+  this user's runs signed);
 - for ``bc``: ``demonstrations.npz``, every state gathered with the expert's action in it
   (:meth:`panda_rapier.imitation.Demonstrations.load`).
 
@@ -48,7 +49,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from . import __version__
+from . import __version__, checkpoint
 from .errors import ConfigError, InvalidArgumentError
 from .registration import ENV_IDS, env_config
 
@@ -356,13 +357,9 @@ def _sb3_callback(
             return True
 
         def save_checkpoint(self) -> None:
-            folder = out / "checkpoints"
-            save_model(self.model, folder / "latest.zip", recorder.run)
-            if hasattr(self.model, "save_replay_buffer"):
-                self.model.save_replay_buffer(folder / "replay_buffer.pkl")
             saved = {**state, "num_timesteps": self.num_timesteps}
             saved["wall_time_s"] = recorder.wall_time()
-            (folder / "state.json").write_text(json.dumps(saved))
+            checkpoint.save(self.model, out / "checkpoints", saved, recorder.run)
 
     return Periodic()
 
@@ -383,6 +380,7 @@ def train(
     checkpoint_every: int | None = None,
     resume: bool = False,
     init_from: str | Path | None = None,
+    trust: bool = False,
     torch_threads: int = 1,
     progress: bool = True,
     command: list[str] | None = None,
@@ -394,10 +392,13 @@ def train(
     the recipe's; ``env_kwargs`` are added to the recipe's environment options. ``init_from``
     (a model saved by this algorithm, with the same observation and action spaces) gives the
     network its starting weights, observation normaliser included: fine-tuning. The run record
-    keeps that model's own run record, so its training time can be added up.
-    ``on_evaluation`` is called with each periodic evaluation's line of ``evaluations.jsonl``
-    (env steps, wall time, success and placed rate, mean return), after it is written and
-    ``best.zip`` is saved: :mod:`panda_rapier.tuning` reports them to Ray Tune."""
+    keeps that model's own run record, so its training time can be added up. ``resume`` goes
+    on from ``out``'s checkpoint with the recipe and options the run recorded, reading the
+    checkpoint by data (:mod:`panda_rapier.checkpoint`; ``trust`` lets it unpickle a replay
+    buffer this user's runs did not write). ``on_evaluation`` is called with each periodic
+    evaluation's line of ``evaluations.jsonl`` (env steps, wall time, success and placed rate,
+    mean return), after it is written and ``best.zip`` is saved: :mod:`panda_rapier.tuning`
+    reports them to Ray Tune."""
     import torch as th
 
     if env_id not in ENV_IDS:
@@ -417,6 +418,12 @@ def train(
             raise InvalidArgumentError(
                 f"{out} holds a {previous.get('algo')} run on {previous.get('env_id')}"
             )
+        # A resumed run goes on with the recipe and options it recorded.
+        if isinstance(previous.get("recipe"), dict):
+            recipe = previous["recipe"]
+        recorded = previous.get("env_kwargs")
+        options = {**(recorded if isinstance(recorded, dict) else {}), **dict(env_kwargs or {})}
+        config = env_config(env_id, **options)
     elif (out / "run.json").exists():
         raise InvalidArgumentError(f"{out} already holds a run: pass --resume or another --out")
     out.mkdir(parents=True, exist_ok=True)
@@ -474,28 +481,20 @@ def train(
     # A resumed run's environments start from seeds its first part never used.
     env_seed = train_seed + int(state["num_timesteps"])
     env = make_vec_env(env_id, n_envs=n, seed=env_seed, num_threads=num_threads, **options)
+    model = algorithm(
+        recipe.get("policy", "MultiInputPolicy"),
+        env,
+        seed=int(seed),
+        device="cpu",
+        tensorboard_log=str(out / "tensorboard"),
+        verbose=0,
+        **model_kwargs(algo, recipe),
+    )
     if resume:
-        model = algorithm.load(out / "checkpoints" / "latest.zip", env=env, device="cpu")
-        buffer = out / "checkpoints" / "replay_buffer.pkl"
-        if hasattr(model, "load_replay_buffer") and buffer.is_file():
-            import warnings
-
-            # The environments restart with fresh episodes on resume, so the episode that was
-            # running at the checkpoint is truncated: what HER's warning recommends here.
-            with warnings.catch_warnings():
-                warnings.filterwarnings("ignore", "The last trajectory in the replay buffer")
-                model.load_replay_buffer(buffer, truncate_last_traj=True)
+        # Rebuilt from the recorded recipe, then filled from the checkpoint by data alone.
+        checkpoint.restore(model, out / "checkpoints", trust=trust)
         say(f"resuming {out} at {model.num_timesteps:,} steps")
     else:
-        model = algorithm(
-            recipe.get("policy", "MultiInputPolicy"),
-            env,
-            seed=int(seed),
-            device="cpu",
-            tensorboard_log=str(out / "tensorboard"),
-            verbose=0,
-            **model_kwargs(algo, recipe),
-        )
         if init_from is not None:
             _load_weights(model, Path(init_from))
             say(f"starting from the weights of {init_from}")
