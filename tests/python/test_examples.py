@@ -75,6 +75,12 @@ def test_soak_script_reports_memory_and_speed(tmp_path: Path) -> None:
     report = json.loads((tmp_path / "soak.json").read_text())
     assert report["env_steps"] == 256 and len(report["samples"]) == 2 and report["complete"]
     assert all(s["rss_mib"] > 0 and s["env_steps_per_s"] > 0 for s in report["samples"])
+    # The whole family on both arms: 20 VecEnvs alive at once, stepped in turn.
+    run(ROOT / "examples/soak.py", "--env-id", "family", "--arm", "dynamic", "kinematic",
+        "--steps", "320", "--every", "160", "--n-envs", "2", "--no-progress",
+        "--out", tmp_path / "family")  # fmt: skip
+    report = json.loads((tmp_path / "family" / "soak.json").read_text())
+    assert len(report["per_id_and_arm"]) == 20 and report["complete"]
 
 
 def test_computed_torque_example_tracks_with_the_model() -> None:
