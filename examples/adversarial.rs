@@ -1,5 +1,5 @@
 //! Adversarial dynamics: the hardest inputs a policy can give, for many steps, counting what
-//! happens. Scenarios (each on both arm models where it applies):
+//! happens. Scenarios (the first two on every task and both arm models):
 //!
 //! - `joints_bang_bang`: `joints` control, every joint commanded at +-1 (the largest delta),
 //!   signs flipping at random every 1-5 steps.
@@ -12,11 +12,12 @@
 //! For each: environment steps, episodes, observations or rewards with a NaN (must be 0),
 //! blow-ups detected (`physics_unstable`), resets after them that worked, and the fastest body.
 //!
-//! `cargo run --release --example adversarial -- [TOTAL_ENV_STEPS]` (default 1,000,000).
+//! `cargo run --release --example adversarial -- [TOTAL_ENV_STEPS]` (default 1,000,000: 40,000
+//! for each task, scenario and arm, 200,000 of torque bang-bang).
 
 use std::time::Instant;
 
-use panda_rapier::task::{ControlMode, EnvConfig, TaskThresholds};
+use panda_rapier::task::{ControlMode, EnvConfig, TaskKind, TaskThresholds};
 use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use panda_rapier::{ArmFidelity, JointControl, SimConfig, Simulation};
 use rand::{Rng, SeedableRng};
@@ -35,14 +36,17 @@ struct Tally {
 
 fn env_scenario(
     name: &str,
+    task: TaskKind,
     mode: ControlMode,
     arm: ArmFidelity,
     steps: u64,
 ) -> panda_rapier::Result<Tally> {
     let n = 64;
     let config = EnvConfig {
+        task,
         control_mode: mode,
         arm,
+        max_episode_steps: Some(if task == TaskKind::Stack { 150 } else { 70 }),
         ..EnvConfig::default()
     };
     let mut env = PandaVecEnv::new(config, n, None, AutoresetMode::SameStep)?;
@@ -169,11 +173,13 @@ fn main() -> panda_rapier::Result<()> {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(1_000_000);
-    let share = total / 5;
-    println!(
-        "{:<18} {:<10} {:>9} {:>8} {:>5} {:>9} {:>7} {:>9} {:>7}",
-        "scenario", "arm", "steps", "episodes", "NaN", "blow-ups", "resets", "fastest", "s"
-    );
+    let tasks = [
+        TaskKind::PickAndPlace,
+        TaskKind::Reach,
+        TaskKind::Lift,
+        TaskKind::Push,
+        TaskKind::Stack,
+    ];
     let runs: [(&str, ControlMode, ArmFidelity); 4] = [
         (
             "joints_bang_bang",
@@ -188,32 +194,43 @@ fn main() -> panda_rapier::Result<()> {
         ),
         ("ee_into_table", ControlMode::Ee, ArmFidelity::Kinematic),
     ];
+    // A fifth of the steps for torque bang-bang, the rest shared by every task and scenario.
+    let share = total * 4 / 5 / (tasks.len() * runs.len()) as u64;
+    println!(
+        "{:<14} {:<18} {:<10} {:>9} {:>8} {:>5} {:>9} {:>7} {:>9} {:>7}",
+        "task", "scenario", "arm", "steps", "episodes", "NaN", "blow-ups", "resets", "fastest", "s"
+    );
     let mut all = Tally::default();
-    let mut report = |name: &str, arm: &str, t: &Tally, seconds: f64| {
+    let mut report = |task: &str, name: &str, arm: &str, t: &Tally, seconds: f64| {
         println!(
-            "{name:<18} {arm:<10} {:>9} {:>8} {:>5} {:>9} {:>7} {:>7.2} m/s {:>5.0}",
+            "{task:<14} {name:<18} {arm:<10} {:>9} {:>8} {:>5} {:>9} {:>7} {:>7.2} m/s {:>5.0}",
             t.steps, t.episodes, t.nan, t.blow_ups, t.resets_after_blow_up, t.fastest, seconds
         );
         all.steps += t.steps;
         all.nan += t.nan;
         all.blow_ups += t.blow_ups;
+        all.resets_after_blow_up += t.resets_after_blow_up;
     };
-    for (name, mode, arm) in runs {
-        let start = Instant::now();
-        let t = env_scenario(name, mode, arm, share)?;
-        report(name, arm.as_str(), &t, start.elapsed().as_secs_f64());
+    for task in tasks {
+        for (name, mode, arm) in runs {
+            let start = Instant::now();
+            let t = env_scenario(name, task, mode, arm, share)?;
+            let label = format!("{task:?}");
+            report(&label, name, arm.as_str(), &t, start.elapsed().as_secs_f64());
+        }
     }
     let start = Instant::now();
-    let t = torque_scenario(total - 4 * share)?;
+    let t = torque_scenario(total - all.steps)?;
     report(
+        "(robot API)",
         "torque_bang_bang",
         "dynamic",
         &t,
         start.elapsed().as_secs_f64(),
     );
     println!(
-        "total: {} steps, {} with a NaN, {} blow-ups (each detected and reset)",
-        all.steps, all.nan, all.blow_ups
+        "total: {} steps, {} with a NaN, {} blow-ups, {} of them detected and reset cleanly",
+        all.steps, all.nan, all.blow_ups, all.resets_after_blow_up
     );
     Ok(())
 }

@@ -83,6 +83,15 @@ def test_soak_script_reports_memory_and_speed(tmp_path: Path) -> None:
     assert len(report["per_id_and_arm"]) == 20 and report["complete"]
 
 
+def test_adversarial_pixels_script_counts_every_id(tmp_path: Path) -> None:
+    out = run(ROOT / "examples/adversarial_pixels.py", "--steps", "800", "--num-envs", "2",
+              "--image-size", "32", "--no-progress", "--json", tmp_path / "a.json")  # fmt: skip
+    assert "total: steps" in out
+    report = json.loads((tmp_path / "a.json").read_text())
+    assert len(report["runs"]) == 20  # every task, both action modes, rgb and state+rgb
+    assert report["total"]["non_finite"] == 0 and report["total"]["bad_images"] == 0
+
+
 def test_computed_torque_example_tracks_with_the_model() -> None:
     """The model's inverse dynamics make torque control track a trajectory that PD alone
     misses, and gravity compensation holds the arm."""

@@ -61,9 +61,13 @@ def non_contiguous(array: np.ndarray) -> np.ndarray:
     return wide[..., ::2]
 
 
-@pytest.fixture(scope="module")
-def env() -> gym.Env:
-    env = gym.make("panda_rapier/PickAndPlace-v0")
+#: Every task in both action modes: the hostile-input properties hold for each.
+TASK_IDS = [i for i in panda_rapier.ENV_IDS if "Dense" not in i]
+
+
+@pytest.fixture(scope="module", params=TASK_IDS)
+def env(request: pytest.FixtureRequest) -> gym.Env:
+    env = gym.make(request.param)
     env.reset(seed=0)
     return env
 
@@ -71,8 +75,8 @@ def env() -> gym.Env:
 @FAST
 @given(
     action=wild_arrays(hnp.array_shapes(min_dims=0, max_dims=3, max_side=9))
-    | wild_arrays(st.just((4,)))
-    | st.lists(WILD_FLOATS, max_size=6)
+    | wild_arrays(st.sampled_from([(4,), (8,)]))
+    | st.lists(WILD_FLOATS, max_size=9)
     | st.none()
     | st.text(max_size=4),
     strided=st.booleans(),
@@ -186,14 +190,15 @@ def test_any_seed_and_options_reset_or_raise_invalid_argument(
 
 @FAST
 @given(
-    observation=wild_arrays(hnp.array_shapes(min_dims=0, max_dims=3, max_side=50))
+    observation=wild_arrays(hnp.array_shapes(min_dims=0, max_dims=3, max_side=70))
     | st.dictionaries(
         st.sampled_from(["achieved_goal", "desired_goal", "observation"]),
-        wild_arrays(hnp.array_shapes(max_dims=2, max_side=45)),
+        wild_arrays(hnp.array_shapes(max_dims=2, max_side=70)),
     )
 )
-def test_scripted_policy_acts_or_raises_invalid_argument(observation: object) -> None:
-    policy = ScriptedPolicy()
+@pytest.mark.parametrize("task", ["pick_and_place", "reach", "lift", "push", "stack"])
+def test_scripted_policy_acts_or_raises_invalid_argument(task: str, observation: object) -> None:
+    policy = ScriptedPolicy(task=task)
     try:
         actions, _ = policy.predict(observation)
     except InvalidArgumentError:
