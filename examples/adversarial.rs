@@ -216,11 +216,17 @@ fn main() -> panda_rapier::Result<()> {
             let start = Instant::now();
             let t = env_scenario(name, task, mode, arm, share)?;
             let label = format!("{task:?}");
-            report(&label, name, arm.as_str(), &t, start.elapsed().as_secs_f64());
+            report(
+                &label,
+                name,
+                arm.as_str(),
+                &t,
+                start.elapsed().as_secs_f64(),
+            );
         }
     }
     let start = Instant::now();
-    let t = torque_scenario(total - all.steps)?;
+    let t = torque_scenario(total - share * (tasks.len() * runs.len()) as u64)?;
     report(
         "(robot API)",
         "torque_bang_bang",
