@@ -155,6 +155,7 @@ def test_train_bc_writes_a_run_that_eval_reads_without_flags(
             "--eval-episodes", "4", "--env-kwargs", "arm=kinematic",
             "max_episode_steps=60"]  # fmt: skip
     assert main(argv) == 0
+    assert "demonstrations" not in capsys.readouterr().err  # --quiet: no progress bars
     run = json.loads((out / "run.json").read_text())
     assert run["env_kwargs"] == {"arm": "kinematic", "max_episode_steps": 60}
     assert run["env_steps"] == 16 * 60 and run["saved_algo"] == "ppo"

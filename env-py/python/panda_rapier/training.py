@@ -461,8 +461,9 @@ def train(
                 "demo_episodes and dagger_rounds, not --timesteps"
             )
         return _train_bc(
-            run, recipe, config, out, n_envs, num_threads, eval_episodes, say, on_evaluation
-        )
+            run, recipe, config, out, n_envs, num_threads, eval_episodes, say, on_evaluation,
+            show_progress=progress,
+        )  # fmt: skip
 
     from .sb3 import make_vec_env
 
@@ -575,8 +576,10 @@ def _train_bc(
     eval_episodes: int,
     say: Callable[[str], None],
     on_evaluation: Callable[[dict[str, Any]], None] | None = None,
+    show_progress: bool = True,
 ) -> dict[str, Any]:
-    """Behaviour cloning and DAgger from the scripted expert (see :mod:`.imitation`)."""
+    """Behaviour cloning and DAgger from the scripted expert (see :mod:`.imitation`); progress
+    bars per collection round unless ``show_progress`` is false (``--quiet``)."""
     from stable_baselines3 import PPO
     from tqdm import tqdm
 
@@ -640,7 +643,7 @@ def _train_bc(
         num_envs=n,
         num_threads=num_threads,
         on_round=on_round,
-        progress=progress,
+        progress=progress if show_progress else None,
     )
     run["env_steps"] = len(data)
     run["demonstration_episodes"] = data.num_episodes
