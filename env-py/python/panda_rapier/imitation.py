@@ -192,7 +192,10 @@ def behaviour_cloning(
     policy = model.policy
     policy.set_training_mode(True)
     generator = np.random.default_rng(seed)
-    obs = {k: th.as_tensor(v) for k, v in _common.split_observation(demos.observations).items()}
+    # Split by the layout of the task the rows came from (Stack's goals are 6-D).
+    schema = _common.Schema.of(_common.config_json(demos.config))
+    rows = _common.split_observation(demos.observations, schema)
+    obs = {k: th.as_tensor(v) for k, v in rows.items()}
     target = th.as_tensor(demos.actions)
     parameters = [p for name, p in policy.named_parameters() if not name.startswith("value_net")]
     optimizer = th.optim.Adam(parameters, lr=learning_rate)
