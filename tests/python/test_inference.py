@@ -41,10 +41,9 @@ from panda_rapier.inference import (
     PolicyNetwork,
     UnsupportedModelError,
     UntrustedModelError,
-    _load_weights,
-    _rebuild_tensor,
     load_policy,
 )
+from panda_rapier.model_file import _load_weights, _rebuild_tensor
 from panda_rapier.normalization import NormalizedFlatten, fit_normalizers
 from panda_rapier.registration import env_config
 from panda_rapier.sb3 import make_vec_env

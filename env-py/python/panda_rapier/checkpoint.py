@@ -7,7 +7,7 @@ A checkpoint is ``latest.zip`` (stable-baselines3's model file), for off-policy 
 on ``--resume``. :func:`restore` does not: the model is rebuilt from the run's recorded recipe
 (by ``panda-rapier train``), then every torch state dict of the zip (the policy, its
 optimizers) and its torch variables are read by data alone
-(:func:`panda_rapier.inference.read_torch_entries`), and the step counters from the plain
+(:func:`panda_rapier.model_file.read_torch_entries`), and the step counters from the plain
 fields of its ``data`` entry; the zip's pickled entries (schedules, which come from the recipe;
 the last observation and episode statistics, which the fresh environments replace) are never
 read.
@@ -99,7 +99,8 @@ def restore(model: Any, folder: Path, trust: bool = False) -> dict[str, Any]:
     """Restores the checkpoint in ``folder`` into ``model`` (built from the run's recipe, on the
     run's environment) as the module docstring says; returns ``state.json``'s content. A
     checkpoint that does not fit the model is an :class:`InvalidArgumentError`."""
-    from .inference import UntrustedModelError, read_torch_entries
+    from .inference import UntrustedModelError
+    from .model_file import read_torch_entries
 
     state = json.loads((folder / STATE).read_text())
     data, entries = read_torch_entries(folder / MODEL)

@@ -537,12 +537,13 @@ def train(
 
 def _load_weights(model: Any, path: Path) -> None:
     """Copies the policy weights (normaliser buffers included) of the model file at ``path``
-    into ``model``, reading the file by data alone (:func:`~panda_rapier.inference.
+    into ``model``, reading the file by data alone (:func:`~panda_rapier.model_file.
     read_model_file`: nothing in it is unpickled); other spaces or another architecture are an
     :class:`InvalidArgumentError`."""
     import torch as th
 
-    from .inference import read_model_file, space_mismatch
+    from .inference import space_mismatch
+    from .model_file import read_model_file
 
     data, weights = read_model_file(path)
     mismatch = space_mismatch(data, model.observation_space, model.action_space)
