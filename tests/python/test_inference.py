@@ -22,6 +22,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import torch as th
+from conftest import WritesAFile, hostile_payload, poisoned
 from stable_baselines3 import PPO, SAC, TD3
 
 from panda_rapier import InvalidArgumentError
@@ -180,38 +181,13 @@ def test_unsupported_models_fall_back_to_stable_baselines3(tmp_path: Path) -> No
         PolicyNetwork.from_zip(tmp_path / "missing.zip")
 
 
-class _Payload:
-    """Pickles to a call that creates a file: what a hostile model file would hold."""
-
-    def __init__(self, marker: Path) -> None:
-        self.marker = marker
-
-    def __reduce__(self):
-        return (open, (str(self.marker), "w"))
-
-
-def _poisoned(source: Path, hostile: Path, payload: str) -> Path:
-    """A copy of the model file ``source`` whose pickled data entries are all ``payload``."""
-    with zipfile.ZipFile(source) as archive, zipfile.ZipFile(hostile, "w") as out:
-        for item in archive.infolist():
-            raw = archive.read(item)
-            if item.filename == "data":
-                data = json.loads(raw)
-                for value in data.values():
-                    if isinstance(value, dict) and ":serialized:" in value:
-                        value[":serialized:"] = payload
-                raw = json.dumps(data).encode()
-            out.writestr(item, raw)
-    return hostile
-
-
 def test_a_model_file_is_read_without_unpickling(tmp_path: Path) -> None:
     """Every pickled entry of the data replaced by a payload that writes a file: the native
     network reads the file without running it (stable-baselines3's load would)."""
     marker = tmp_path / "ran"
-    payload = base64.b64encode(pickle.dumps(_Payload(marker))).decode()
+    payload = hostile_payload(marker)
     source = MODELS / "bc-dagger-PickAndPlace-v0.zip"
-    hostile = _poisoned(source, tmp_path / "hostile.zip", payload)
+    hostile = poisoned(source, tmp_path / "hostile.zip", payload)
     policy = PolicyNetwork.from_zip(hostile)
     assert not marker.exists()
     rows = _states("bc-dagger-PickAndPlace-v0.zip")[:5]
@@ -221,7 +197,7 @@ def test_a_model_file_is_read_without_unpickling(tmp_path: Path) -> None:
     model = _tiny(PPO, n_steps=8, batch_size=8,
                   policy_kwargs={"net_arch": [16], "activation_fn": th.nn.ELU})  # fmt: skip
     model.save(tmp_path / "elu.zip")
-    _poisoned(tmp_path / "elu.zip", tmp_path / "hostile-elu.zip", payload)
+    poisoned(tmp_path / "elu.zip", tmp_path / "hostile-elu.zip", payload)
     argv = ["eval", "--policy", str(tmp_path / "hostile-elu.zip"), "--episodes", "1", "--quiet"]
     assert main(argv) == 2
     assert not marker.exists()
@@ -267,7 +243,7 @@ def test_weights_that_name_a_callable_are_refused_unrun(tmp_path: Path) -> None:
     runs, and a damaged or overreaching tensor is a clear error, not a crash."""
     marker = tmp_path / "ran"
     buffer = io.BytesIO()
-    th.save({"weight": _Payload(marker)}, buffer)
+    th.save({"weight": WritesAFile(marker)}, buffer)
     with pytest.raises(UnsupportedModelError, match=r"names io\.open"):
         _load_weights(buffer.getvalue())
     assert not marker.exists()

@@ -7,7 +7,6 @@ from __future__ import annotations
 import base64
 import json
 import pickle
-import shutil
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -19,6 +18,7 @@ pytest.importorskip("stable_baselines3")
 yaml = pytest.importorskip("yaml")
 
 import torch as th  # noqa: E402
+from conftest import hostile_payload, poisoned  # noqa: E402
 from stable_baselines3 import PPO  # noqa: E402
 
 from panda_rapier import ConfigError, InvalidArgumentError  # noqa: E402
@@ -255,24 +255,12 @@ def test_train_init_from_starts_from_another_models_weights(tmp_path: Path) -> N
     # The file is read by data: a model whose pickled entries would write a file when
     # unpickled gives its weights and runs nothing.
     marker = tmp_path / "ran"
-    payload = base64.b64encode(pickle.dumps(_WritesAFile(marker))).decode()
-    hostile = tmp_path / "hostile.zip"
-    shutil.copy(tmp_path / "a" / "model.zip", hostile)
-    _poison(hostile, payload)
+    payload = hostile_payload(marker)
+    hostile = poisoned(tmp_path / "a" / "model.zip", tmp_path / "hostile.zip", payload)
     assert main([*common, "--out", str(tmp_path / "e"), "--init-from", str(hostile)]) == 0
     assert not marker.exists()
     pickle.loads(base64.b64decode(payload)).close()  # what unpickling it would have done
     assert marker.exists()
-
-
-class _WritesAFile:
-    """Pickles to a call that creates a file: what a hostile model file would hold."""
-
-    def __init__(self, marker: Path) -> None:
-        self.marker = marker
-
-    def __reduce__(self):
-        return (open, (str(self.marker), "w"))
 
 
 def test_recipes_are_rl_zoo3_files_and_bad_ones_are_refused(tmp_path: Path) -> None:
@@ -367,8 +355,8 @@ def test_checkpoint_is_restored_by_data_exactly(tmp_path: Path) -> None:
     folder = out / "checkpoints"
     reference = PPO.load(folder / checkpoint.MODEL, device="cpu")
     marker = tmp_path / "ran"
-    payload = base64.b64encode(pickle.dumps(_WritesAFile(marker))).decode()
-    _poison(folder / checkpoint.MODEL, payload)
+    payload = hostile_payload(marker)
+    poisoned(folder / checkpoint.MODEL, folder / checkpoint.MODEL, payload)
 
     recipe = load_recipe("ppo", "panda_rapier/PickAndPlaceDense-v0", conf)
     env = make_vec_env("panda_rapier/PickAndPlaceDense-v0", n_envs=4)
@@ -405,21 +393,6 @@ def _flatten(tree: Any, prefix: str = "") -> dict[str, Any]:
             k: v for i, sub in enumerate(tree) for k, v in _flatten(sub, f"{prefix}{i}/").items()
         }
     return {prefix: tree}
-
-
-def _poison(model_file: Path, payload: str) -> None:
-    """Replaces every pickled entry of the model file's data with ``payload``, in place."""
-    with zipfile.ZipFile(model_file) as archive:
-        entries = [(item, archive.read(item)) for item in archive.infolist()]
-    with zipfile.ZipFile(model_file, "w") as out:
-        for item, raw in entries:
-            if item.filename == "data":
-                data = json.loads(raw)
-                for value in data.values():
-                    if isinstance(value, dict) and ":serialized:" in value:
-                        value[":serialized:"] = payload
-                raw = json.dumps(data).encode()
-            out.writestr(item, raw)
 
 
 MODELS = Path(__file__).resolve().parents[2] / "models"
