@@ -70,7 +70,10 @@ def test_native_errors_are_instances_of_the_classes() -> None:
     env.reset(seed=0)
     with pytest.raises(InvalidActionError):
         env._native.step(np.array([0.0, np.nan, 0.0, 0.0], np.float32))
-    for options in ({"goal": [0.5, 0.0]}, {"joint_positions": [0.0] * 3}):
+    # Too few values, too many, and a position beyond the observation's bound (3.4e38 fits a
+    # float64 but not the float32 observation).
+    for options in ({"goal": [0.5, 0.0]}, {"joint_positions": [0.0] * 3},
+                    {"goal": [0.0, 0.0, 3.4e38]}, {"cube_position": [1e4, 0.0, 0.03]}):  # fmt: skip
         with pytest.raises(InvalidArgumentError, match="reset option") as bad_option:
             env._native.reset(0, json.dumps(options))
         assert type(bad_option.value) is InvalidArgumentError

@@ -9,6 +9,9 @@ use crate::physics::ObjectId;
 use crate::task::observation::{InfoValue, INFO_FIELDS};
 use crate::task::reward::{RewardContext, RewardTerms};
 
+/// Largest magnitude of a position a reset option may give (m): the observation's bound.
+pub const MAX_POSITION: f64 = 1000.0;
+
 /// Overrides for one reset (Gymnasium's `options`); anything left `None` is drawn at random.
 /// The random draws happen either way, so an override does not shift the rest of the episode's
 /// randomness.
@@ -47,14 +50,26 @@ impl ResetOptions {
 
     fn check_values(&self, num_dofs: usize) -> Result<()> {
         let check = |what: &str, values: &[f64]| crate::error::ensure_all_finite(what, values);
+        // Positions also fit the observation: its entries are bounded by +-MAX_POSITION (and an
+        // f64 beyond f32's range would become infinite there).
+        let position = |what: &str, values: &[f64]| {
+            check(what, values)?;
+            match values.iter().position(|v| v.abs() > MAX_POSITION) {
+                Some(i) => Err(Error::InvalidOption {
+                    what: format!("{what}[{i}]"),
+                    reason: format!("must be within +-{MAX_POSITION} m, got {}", values[i]),
+                }),
+                None => Ok(()),
+            }
+        };
         if let Some(p) = &self.cube_position {
-            check("options.cube_position", p)?;
+            position("options.cube_position", p)?;
         }
         if let Some(y) = self.cube_yaw {
             check("options.cube_yaw", &[y])?;
         }
         if let Some(g) = &self.goal {
-            check("options.goal", g)?;
+            position("options.goal", g)?;
         }
         if let Some(q) = &self.joint_positions {
             ensure_len("options.joint_positions", num_dofs, q.len())?;
