@@ -1,7 +1,8 @@
 //! Speed next to accuracy for solver settings: for each
-//! `dt:substeps:iterations[:kinematic][:substep]` given (the control period `dt * substeps`
-//! must stay 0.04 s; `kinematic` selects the kinematic arm, `substep` rebuilds the arm's mass
-//! matrix after every solver iteration, `solver.multibody_update = "substep"`), prints
+//! `dt:substeps:iterations[:kinematic][:substep][:pd=METRES]` given (the control period
+//! `dt * substeps` must stay 0.04 s; `kinematic` selects the kinematic arm, `substep` rebuilds
+//! the arm's mass matrix after every solver iteration, `solver.multibody_update = "substep"`;
+//! `pd=` sets `solver.contact_prediction_distance`), prints
 //! env-steps/s of 16 environments on
 //! one thread (random actions), the tutorial grasp's slip and tracking error, the creep of a
 //! held cube under a 0.5 Hz base swing, and the scripted policy's placed rate.
@@ -84,15 +85,19 @@ fn main() -> panda_rapier::Result<()> {
     for spec in &args {
         let parts: Vec<&str> = spec.split(':').collect();
         let [dt, substeps, iterations, ref options @ ..] = parts[..] else {
-            panic!("expected dt:substeps:iterations[:kinematic][:substep], got {spec}");
+            panic!("expected dt:substeps:iterations[:kinematic][:substep][:pd=METRES], got {spec}");
         };
         let mut arm = ArmFidelity::Dynamic;
         let mut multibody_update = MultibodyUpdate::Step;
+        let mut prediction = SimConfig::default().solver.contact_prediction_distance;
         for option in options {
             match *option {
                 "kinematic" => arm = ArmFidelity::Kinematic,
                 "substep" => multibody_update = MultibodyUpdate::Substep,
-                other => panic!("unknown option {other:?} in {spec}"),
+                other => match other.strip_prefix("pd=") {
+                    Some(value) => prediction = value.parse().expect("pd=METRES"),
+                    None => panic!("unknown option {other:?} in {spec}"),
+                },
             }
         }
         let mut config = EnvConfig {
@@ -104,6 +109,7 @@ fn main() -> panda_rapier::Result<()> {
         config.sim.solver.substeps = substeps.parse().expect("substeps");
         config.sim.solver.solver_iterations = iterations.parse().expect("iterations");
         config.sim.solver.multibody_update = multibody_update;
+        config.sim.solver.contact_prediction_distance = prediction;
         let rate = env_steps_per_second(&config)?;
         let mut sim = Simulation::new(config.sim_config()?)?;
         let plan = TutorialSequence::for_scene(&sim);

@@ -29,6 +29,11 @@ pub struct SolverConfig {
     /// Characteristic length of the scene (m): rapier scales its penetration and
     /// prediction tolerances by it, so it is set to the size of the objects handled.
     pub length_unit: f64,
+    /// Distance (m) within which rapier creates contacts ahead of time, before the shapes
+    /// touch. A physics step must not move fingers and cube farther than this, or contacts
+    /// arrive late and grasps slip (`docs/benchmarks.md`, "Why dt = 0.02 s loses the
+    /// scripted policy"). rapier's own default is `0.02 x length_unit`.
+    pub contact_prediction_distance: f64,
     /// How often the dynamic arm's mass matrix (and what depends only on its configuration)
     /// is rebuilt: once per physics step (`"step"`, the default) or after every solver
     /// iteration (`"substep"`, rapier's own behaviour, several times more expensive).
@@ -70,6 +75,7 @@ impl Default for SolverConfig {
             contact_natural_frequency: 120.0,
             contact_damping_ratio: 5.0,
             length_unit: 0.1,
+            contact_prediction_distance: 0.002,
             multibody_update: MultibodyUpdate::Step,
         }
     }
@@ -360,6 +366,16 @@ impl SimConfig {
         )?;
         positive("solver.contact_damping_ratio", s.contact_damping_ratio)?;
         positive("solver.length_unit", s.length_unit)?;
+        positive(
+            "solver.contact_prediction_distance",
+            s.contact_prediction_distance,
+        )?;
+        if s.contact_prediction_distance > 1.0 {
+            return Err(invalid(
+                "solver.contact_prediction_distance",
+                format!("must be at most 1 m, got {}", s.contact_prediction_distance),
+            ));
+        }
 
         let m = &self.motors;
         positive("motors.stiffness", m.stiffness)?;
@@ -420,6 +436,14 @@ mod tests {
             ("cube.size", Box::new(|c| c.cube.size = f64::NAN)),
             ("solver.dt", Box::new(|c| c.solver.dt = 0.0)),
             ("solver.substeps", Box::new(|c| c.solver.substeps = 0)),
+            (
+                "solver.contact_prediction_distance",
+                Box::new(|c| c.solver.contact_prediction_distance = f64::NAN),
+            ),
+            (
+                "solver.contact_prediction_distance",
+                Box::new(|c| c.solver.contact_prediction_distance = 2.0),
+            ),
             ("platform.size[1]", Box::new(|c| c.platform.size[1] = 0.0)),
             ("gravity", Box::new(|c| c.gravity[2] = f64::INFINITY)),
             ("motors.stiffness", Box::new(|c| c.motors.stiffness = 0.0)),

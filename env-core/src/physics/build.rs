@@ -56,6 +56,7 @@ impl Simulation {
             MultibodyUpdate::Substep => rapier3d::dynamics::MultibodyUpdate::Substep,
         };
         p.length_unit = s.length_unit as f32;
+        p.normalized_prediction_distance = (s.contact_prediction_distance / s.length_unit) as f32;
         p.contact_softness.natural_frequency = s.contact_natural_frequency as f32;
         p.contact_softness.damping_ratio = s.contact_damping_ratio as f32;
         // Stale recycled contacts let the fingers "hold" the cube 7-8 mm short of touching it,

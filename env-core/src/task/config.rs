@@ -261,6 +261,7 @@ impl Default for TaskThresholds {
 ///       "contact_natural_frequency": 120.0,
 ///       "contact_damping_ratio": 5.0,
 ///       "length_unit": 0.1,
+///       "contact_prediction_distance": 0.002,
 ///       "multibody_update": "step"
 ///     },
 ///     "motors": {
