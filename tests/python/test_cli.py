@@ -63,6 +63,20 @@ def test_eval_is_reproducible(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert "success rate" in capsys.readouterr().out
 
 
+def test_eval_random_policy_is_the_seeded_floor(tmp_path: Path) -> None:
+    """``--policy random``: uniform actions drawn per episode seed, so a rerun repeats it."""
+    reports = []
+    for name in ("a", "b"):
+        path = tmp_path / f"{name}.json"
+        args = ["eval", "--policy", "random", "--env-id", "panda_rapier/ReachDense-v0",
+                "--episodes", "4", "--num-envs", "2", "--quiet", "--json", str(path)]  # fmt: skip
+        assert main(args) == 0
+        reports.append(json.loads(path.read_text()))
+    assert reports[0]["inference"] == "random" and reports[0]["policy"] == "random"
+    assert reports[0]["episode_records"] == reports[1]["episode_records"]
+    assert len({r["episode_return"] for r in reports[0]["episode_records"]}) == 4
+
+
 def test_eval_rejects_bad_arguments(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["eval", "--policy", str(tmp_path / "missing.zip"), "--quiet"]) == 2
     assert "does not exist" in capsys.readouterr().err

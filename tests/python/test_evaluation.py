@@ -11,6 +11,7 @@ import pytest
 from panda_rapier import (
     ConfigError,
     InvalidArgumentError,
+    RandomPolicy,
     ResetNeededError,
     ScriptedPolicy,
     _common,
@@ -51,6 +52,33 @@ def test_records_do_not_depend_on_threads_and_prefixes_agree() -> None:
     assert sum(e.length for e in one.episodes) == one.env_steps - one.idle_env_steps
     assert one.idle_env_steps > 0
     assert one.summary()["idle_env_steps"] == one.idle_env_steps
+
+
+def test_random_policy_acts_by_episode() -> None:
+    """The benchmark's random row keeps the evaluation's contract: each episode's actions come
+    from its own stream (its seed's), so the same (config, first_seed, num_envs) gives the same
+    records for any number of threads, a shorter evaluation the first records of a longer one,
+    and another policy seed other actions."""
+
+    def outcomes(report):  # type: ignore[no-untyped-def]
+        return [(e.seed, e.env_index, e.episode_return, e.length) for e in report.episodes]
+
+    config = env_config("panda_rapier/ReachDense-v0")  # returns differ between episodes
+    one = evaluate(RandomPolicy(config), config, 12, num_envs=5, num_threads=1)
+    two = evaluate(RandomPolicy(config), config, 12, num_envs=5, num_threads=2)
+    assert one.inference == two.inference == "random"
+    assert outcomes(one) == outcomes(two)
+    shorter = evaluate(RandomPolicy(config), config, 7, num_envs=5)
+    assert outcomes(shorter) == outcomes(one)[:7]
+    other = evaluate(RandomPolicy(config, seed=1), config, 12, num_envs=5)
+    assert [r for *_, r, _ in outcomes(other)] != [r for *_, r, _ in outcomes(one)]
+    # Called directly: actions in [-1, 1] of the task's action shape, one row per observation.
+    action, _ = RandomPolicy("panda_rapier/ReachJoints-v0").predict(
+        np.zeros((3, RandomPolicy("panda_rapier/ReachJoints-v0").observation_dim), np.float32)
+    )
+    assert action.shape == (3, 8) and np.all(np.abs(action) <= 1)
+    with pytest.raises(InvalidArgumentError, match="seed"):
+        RandomPolicy(config, seed=-1)
 
 
 def test_refill_schedule_as_seen_by_the_step_hook() -> None:

@@ -10,7 +10,8 @@ native stable-baselines3 vector environment.
     envs = gym.make_vec("panda_rapier/PickAndPlace-v0", num_envs=16,
                         vectorization_mode="vector_entry_point")
 
-The scripted baseline: :class:`ScriptedPolicy` (``panda-rapier eval`` on the command line).
+The baselines: :class:`ScriptedPolicy` (the task's expert) and :class:`RandomPolicy`
+(``panda-rapier eval --policy scripted|random`` on the command line).
 stable-baselines3 users: :func:`panda_rapier.sb3.make_vec_env` (needs the ``sb3`` extra).
 Ray (the ``rllib`` extra): :mod:`panda_rapier.rllib` (RLlib configs with the native vector env
 in every EnvRunner) and :mod:`panda_rapier.tuning` (Ray Tune sweeps of the SB3 recipes).
@@ -29,7 +30,7 @@ from .errors import (
     PandaRapierError,
     ResetNeededError,
 )
-from .policy import ScriptedPolicy
+from .policy import RandomPolicy, ScriptedPolicy
 from .registration import ENV_IDS, MAX_EPISODE_STEPS, env_config, register_envs
 from .rendering import RENDER_MODES
 from .robot import Robot
@@ -51,6 +52,7 @@ __all__ = [
     "PickAndPlaceVectorEnv",
     "ResetNeededError",
     "Robot",
+    "RandomPolicy",
     "ScriptedPolicy",
     "__version__",
     "env_config",

@@ -25,9 +25,7 @@ from typing import Any
 from . import __version__
 from .errors import PandaRapierError
 from .inference import INFERENCE_CHOICES
-from .registration import ENV_IDS, env_config
-
-DEFAULT_ENV_ID = "panda_rapier/PickAndPlace-v0"
+from .registration import DEFAULT_ENV_ID, ENV_IDS
 
 
 def _positive(text: str) -> int:
@@ -74,8 +72,8 @@ def _parser() -> argparse.ArgumentParser:
     evaluation.add_argument(
         "--policy",
         default="scripted",
-        help="'scripted' (the manual-control baseline) or the path of a stable-baselines3 "
-        "model .zip (default: scripted)",
+        help="'scripted' (the task's expert), 'random' (uniform actions, seeded by episode) "
+        "or the path of a stable-baselines3 model .zip (default: scripted)",
     )
     evaluation.add_argument(
         "--env-id",
@@ -453,26 +451,11 @@ def _run_bench(args: argparse.Namespace) -> int:
     return 0
 
 
-def _model_env(model_path: Path) -> tuple[str | None, dict[str, Any]]:
-    """The environment id and options recorded with a model (by ``panda-rapier train``: inside
-    the zip; by the example scripts: ``run.json`` beside it)."""
-    from .training import read_run_info
-
-    run = read_run_info(model_path) or {}
-    env_id = run.get("env_id")
-    options = run.get("env_kwargs")
-    return (
-        env_id if env_id in ENV_IDS else None,
-        dict(options) if isinstance(options, dict) else {},
-    )
-
-
 def _run_eval(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from .evaluation import evaluate
-    from .inference import load_policy
-    from .policy import ScriptedPolicy
+    from .inference import resolve_policy
 
     overrides: dict[str, Any] = {}
     if args.control is not None:
@@ -481,31 +464,21 @@ def _run_eval(args: argparse.Namespace) -> int:
         overrides["max_episode_steps"] = args.max_episode_steps
     if args.arm is not None:
         overrides["arm"] = args.arm
-
-    observation: dict[str, Any] = {}
-    if args.policy == "scripted":
-        config = env_config(args.env_id or DEFAULT_ENV_ID, **overrides)
-        policy: Any = ScriptedPolicy(config)
-        label = "scripted"
-    else:
-        model_path = Path(args.policy)
-        if not model_path.is_file():
-            print(
-                f"panda-rapier eval: --policy must be 'scripted' or a model file; "
-                f"{model_path} does not exist",
-                file=sys.stderr,
-            )
-            return 2
-        recorded_id, recorded = _model_env(model_path)
-        env_id = args.env_id or recorded_id or DEFAULT_ENV_ID
-        overrides = {**(recorded if env_id == recorded_id else {}), **overrides}
-        policy, overrides, observation, fallback = load_policy(
-            model_path, env_id, overrides, args.algo, args.inference, args.trust_model_file
+    if args.policy not in ("scripted", "random") and not Path(args.policy).is_file():
+        print(
+            f"panda-rapier eval: --policy must be 'scripted', 'random' or a model file; "
+            f"{args.policy} does not exist",
+            file=sys.stderr,
         )
-        if fallback is not None:
-            print(f"inference: torch float32 (not the native network: {fallback})")
-        config = env_config(env_id, **overrides)
-        label = str(model_path)
+        return 2
+    resolved = resolve_policy(
+        args.policy, args.env_id, overrides, args.algo, args.inference, args.trust_model_file
+    )
+    if resolved.fallback is not None:
+        print(f"inference: torch float32 (not the native network: {resolved.fallback})")
+    policy, config, observation, label = (
+        resolved.policy, resolved.config, resolved.observation, resolved.label
+    )  # fmt: skip
 
     recorder = None
     if args.video is not None:

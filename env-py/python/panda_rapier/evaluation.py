@@ -45,7 +45,7 @@ from . import _common, _native
 from .errors import ConfigError, InvalidArgumentError
 from .inference import NATIVE, TORCH, PolicyNetwork
 from .pixels import DEFAULT_IMAGE_SIZE, ObservationSpec, observation_spec
-from .policy import ScriptedPolicy
+from .policy import RandomPolicy, ScriptedPolicy
 
 if TYPE_CHECKING:
     from .video import VideoRecorder
@@ -333,6 +333,8 @@ def _actor(policy: Any, spec: ObservationSpec) -> tuple[Actor, str, str]:
     if isinstance(policy, ScriptedPolicy):
         native = policy._native
         return (lambda flat, _images: native.act(flat)), "scripted", "scripted"
+    if isinstance(policy, RandomPolicy):  # acts by episode: evaluate() wires it
+        return (lambda flat, _images: policy.predict(flat)[0]), "random", "random"
     if isinstance(policy, PolicyNetwork):
         if spec.has_images:
             raise InvalidArgumentError("a PolicyNetwork acts on state observations only")
@@ -403,6 +405,14 @@ def evaluate(
     if spec.has_images:
         evaluation.set_cameras(spec.cameras_json)
     full_config = json.loads(evaluation.config_json())
+    if isinstance(policy, RandomPolicy):
+        # Each episode's actions come from that episode seed's stream: the same for any
+        # number of environments.
+        def by_episode(_flat: np.ndarray, _images: np.ndarray | None) -> np.ndarray:
+            running = evaluation.running()
+            return policy.act_for_episodes([None if k is None else seed + k for k in running])
+
+        act = by_episode
 
     started = time.perf_counter()
     if recorder is not None:
@@ -443,6 +453,8 @@ def evaluate(
 #: all match, the same evaluation gives the same episodes, bit for bit.
 OUTCOME_FIELDS: dict[str, tuple[str, ...]] = {
     "scripted": ("inference", "panda_rapier", "machine", "libc"),
+    # numpy draws the actions (PCG64; numpy does not promise its streams across versions).
+    "random": ("inference", "panda_rapier", "machine", "libc", "numpy"),
     NATIVE: ("inference", "panda_rapier", "machine", "libc"),
     TORCH: (
         "inference", "panda_rapier", "machine", "libc", "cpu", "cpu_flags", "torch",

@@ -32,17 +32,19 @@ import numpy as np
 
 from . import _native
 from .errors import InvalidArgumentError
-from .model_file import UnsupportedModelError, read_model_file
+from .model_file import UnsupportedModelError, read_model_file, read_run_info
 from .policy import observation_rows
 
 __all__ = [
     "NATIVE",
     "TORCH",
+    "EvaluatedPolicy",
     "NetworkSpec",
     "PolicyNetwork",
     "UnsupportedModelError",
     "UntrustedModelError",
     "load_policy",
+    "resolve_policy",
     "space_mismatch",
 ]
 
@@ -448,3 +450,59 @@ def load_policy(
     env = make_vec_env(env_id, n_envs=1, **overrides, **observation)
     model = load_sb3_model(path, env=env, algo=algo, trust=True)
     return model, overrides, observation, fallback
+
+
+@dataclass
+class EvaluatedPolicy:
+    """What ``panda-rapier eval --policy SPEC`` evaluates: the policy, the environment
+    configuration it acts in (id, recorded options, overrides), the image options of its
+    observation, its label in reports and, for a model the native network could not act out,
+    why (the model was loaded with stable-baselines3 instead)."""
+
+    policy: Any
+    env_id: str
+    config: dict[str, Any]
+    observation: dict[str, Any]
+    label: str
+    fallback: str | None = None
+
+
+def resolve_policy(
+    spec: str | Path,
+    env_id: str | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    algo: str | None = None,
+    inference: str = "auto",
+    trust: bool = False,
+) -> EvaluatedPolicy:
+    """The policy ``spec`` names, as ``panda-rapier eval --policy SPEC`` evaluates it:
+    ``"scripted"`` (the task's expert), ``"random"`` (uniform actions, seeded by episode) or a
+    model file (:func:`load_policy`). A model runs in the environment recorded with it (its id
+    and options; ``env_id`` replaces the id, and then the recorded options are dropped);
+    ``overrides`` (options such as ``control_mode``, ``arm``, ``max_episode_steps``) apply last.
+    """
+    from .policy import RandomPolicy, ScriptedPolicy
+    from .registration import DEFAULT_ENV_ID, ENV_IDS, env_config
+
+    overrides = dict(overrides or {})
+    if str(spec) in ("scripted", "random"):
+        chosen = env_id or DEFAULT_ENV_ID
+        config = env_config(chosen, **overrides)
+        policy: Any = ScriptedPolicy(config) if spec == "scripted" else RandomPolicy(config)
+        return EvaluatedPolicy(policy, chosen, config, {}, str(spec))
+    path = Path(spec)
+    if not path.is_file():
+        raise InvalidArgumentError(
+            f"--policy must be 'scripted', 'random' or a model file; {path} does not exist"
+        )
+    run = read_run_info(path) or {}
+    recorded_id = run.get("env_id") if run.get("env_id") in ENV_IDS else None
+    recorded = run.get("env_kwargs") if isinstance(run.get("env_kwargs"), dict) else {}
+    chosen = env_id or recorded_id or DEFAULT_ENV_ID
+    overrides = {**(dict(recorded) if chosen == recorded_id else {}), **overrides}
+    policy, overrides, observation, fallback = load_policy(
+        path, chosen, overrides, algo, inference, trust
+    )
+    return EvaluatedPolicy(
+        policy, chosen, env_config(chosen, **overrides), observation, str(path), fallback
+    )

@@ -26,12 +26,36 @@ import numpy as np
 
 from .errors import InvalidArgumentError
 
-__all__ = ["UnsupportedModelError", "read_model_file", "read_torch_entries"]
+__all__ = [
+    "RUN_MEMBER",
+    "UnsupportedModelError",
+    "read_model_file",
+    "read_run_info",
+    "read_torch_entries",
+]
+
+#: Name of the run record ``panda-rapier train`` stores inside a saved model zip.
+RUN_MEMBER = "panda_rapier_run.json"
 
 
 class UnsupportedModelError(InvalidArgumentError):
     """A saved model that :class:`PolicyNetwork` cannot act out (it says why); stable-baselines3
     itself may still load it."""
+
+
+def read_run_info(model_path: str | Path) -> dict[str, Any] | None:
+    """The run record of a model saved by ``panda-rapier train``: the ``panda_rapier_run.json``
+    inside the zip, else a ``run.json`` beside it; ``None`` if there is neither."""
+    path = Path(model_path)
+    try:
+        with zipfile.ZipFile(path) as archive:
+            return dict(json.loads(archive.read(RUN_MEMBER)))
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile):
+        pass
+    try:
+        return dict(json.loads((path.parent / "run.json").read_text()))
+    except (OSError, ValueError):
+        return None
 
 
 def read_model_file(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:

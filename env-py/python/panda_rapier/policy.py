@@ -28,7 +28,7 @@ from . import _common, _native
 from .errors import InvalidArgumentError
 from .registration import env_config
 
-__all__ = ["ScriptedPolicy"]
+__all__ = ["RandomPolicy", "ScriptedPolicy"]
 
 _OBSERVATION_KEYS = _common.DICT_KEYS
 
@@ -180,3 +180,67 @@ class ScriptedPolicy:
 
     def __repr__(self) -> str:
         return f"ScriptedPolicy(control_mode={self.config.get('control_mode', 'ee')!r})"
+
+
+class RandomPolicy:
+    """Uniformly random actions in ``[-1, 1]``: the floor of every benchmark table.
+
+    ``source`` and ``config`` say which environment, as for :class:`ScriptedPolicy`.
+    Reproducible by episode, not by call: in :func:`panda_rapier.evaluation.evaluate`, the
+    episode seeded with ``s`` draws its actions from its own stream (``numpy``'s
+    ``default_rng([seed, s])``, one action per step), so the evaluation's contract holds as
+    for a deterministic policy: the same ``(config, first_seed, num_envs)`` gives the same
+    records for any number of threads. Called directly (``predict``) it draws from one stream
+    seeded with ``seed``.
+    """
+
+    def __init__(self, source: Any = None, seed: int = 0, **config: Any) -> None:
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise InvalidArgumentError(f"seed must be an int >= 0, got {seed!r}")
+        options = {**_config_of(source), **config}
+        schema = _common.Schema.of(_common.config_json(options))
+        self.config: dict[str, Any] = options
+        self.seed = seed
+        self.observation_dim = int(schema.observation_dim)
+        self.action_space = _common.action_space(schema.action_dim)
+        self._streams: dict[int, np.random.Generator] = {}
+        self._direct = np.random.default_rng(seed)
+
+    @property
+    def action_dim(self) -> int:
+        """Length of one action."""
+        return int(self.action_space.shape[0])
+
+    def predict(
+        self,
+        observation: Any,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> tuple[np.ndarray, None]:
+        """Random action(s) shaped like :meth:`ScriptedPolicy.predict`'s (one row per
+        observation of a batch), from the policy's own stream."""
+        flat, single = observation_rows(observation, self.observation_dim)
+        actions = self._direct.uniform(-1.0, 1.0, (flat.shape[0], self.action_dim))
+        actions = actions.astype(np.float32)
+        return (actions[0] if single else actions), None
+
+    def act_for_episodes(self, running: list[int | None]) -> np.ndarray:
+        """One action per environment, each from the stream of the episode it runs
+        (``None``: idle, zeros); streams of episodes no longer running are dropped."""
+        actions = np.zeros((len(running), self.action_dim), dtype=np.float32)
+        live = {k for k in running if k is not None}
+        for k in list(self._streams):
+            if k not in live:
+                del self._streams[k]
+        for row, k in enumerate(running):
+            if k is None:
+                continue
+            stream = self._streams.get(k)
+            if stream is None:
+                stream = self._streams[k] = np.random.default_rng([self.seed, k])
+            actions[row] = stream.uniform(-1.0, 1.0, self.action_dim)
+        return actions
+
+    def __repr__(self) -> str:
+        return f"RandomPolicy(seed={self.seed})"

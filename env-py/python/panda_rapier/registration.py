@@ -27,8 +27,8 @@ TASK_EPISODE_STEPS: dict[str, int] = {
     "push": MAX_EPISODE_STEPS,
 }
 
-#: Id prefix of each task.
-_TASK_NAMES = {
+#: Id stem of each task, in the order tables list them.
+TASK_NAMES: dict[str, str] = {
     "pick_and_place": "PickAndPlace",
     "reach": "Reach",
     "lift": "Lift",
@@ -42,13 +42,36 @@ _VARIANTS: dict[str, dict[str, Any]] = {
         "control_mode": control,
         "reward_type": reward,
     }
-    for task, name in _TASK_NAMES.items()
+    for task, name in TASK_NAMES.items()
     for control, joints in (("ee", ""), ("joints", "Joints"))
     for reward, dense in (("sparse", joints), ("dense", joints + "Dense"))
 }
 
 #: Every registered environment id.
 ENV_IDS: tuple[str, ...] = tuple(_VARIANTS)
+
+
+def variant(env_id: str) -> dict[str, Any]:
+    """What an id fixes: its ``task``, ``control_mode`` and ``reward_type``."""
+    from .errors import ConfigError
+
+    if env_id not in _VARIANTS:
+        raise ConfigError(f"unknown environment id {env_id!r}; registered: {', '.join(ENV_IDS)}")
+    return dict(_VARIANTS[env_id])
+
+
+def task_id(task: str, control_mode: str = "ee", reward_type: str = "sparse") -> str:
+    """The id of ``task`` (``"pick_and_place"``, ``"reach"``, ...) in an action mode and
+    reward type: ``task_id("reach", "joints")`` is ``panda_rapier/ReachJoints-v0``."""
+    wanted = {"task": task, "control_mode": control_mode, "reward_type": reward_type}
+    for env_id, fixed in _VARIANTS.items():
+        if fixed == wanted:
+            return env_id
+    raise KeyError(f"no id for {wanted}")
+
+
+#: The id commands use when none is given (``panda-rapier eval``, ``train``, ``bench``).
+DEFAULT_ENV_ID = "panda_rapier/PickAndPlace-v0"
 
 
 def env_config(env_id: str, **overrides: Any) -> dict[str, Any]:

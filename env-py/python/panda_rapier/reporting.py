@@ -1,22 +1,23 @@
-"""Learning curves and the table of shipped models: what ``panda-rapier curves`` and
-``panda-rapier models-table`` run.
+"""Learning curves and the benchmark table of shipped models: what ``panda-rapier curves``
+and ``panda-rapier models-table`` run.
 
 Both read what ``panda-rapier train`` writes (``evaluations.jsonl``, ``run.json``, the run
-record inside each model zip); the table evaluates every model with exactly the command a
-user runs, ``panda-rapier eval --policy MODEL.zip``, so nothing in it is typed by hand.
+record inside each model zip); the table evaluates every row as ``panda-rapier eval --policy
+SPEC`` does (:func:`panda_rapier.inference.resolve_policy`, the same call), so nothing in it
+is typed by hand.
 """
 
 from __future__ import annotations
 
 import json
 import shlex
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from .errors import InvalidArgumentError
-from .training import read_run_info
+from .model_file import read_run_info
+from .registration import TASK_NAMES, task_id, variant
 
 __all__ = ["models_table", "plot_curves", "run_label"]
 
@@ -43,8 +44,9 @@ def run_label(run: dict[str, Any]) -> str:
 
 
 def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) -> None:
-    """Success (solid, with its 95 % interval) and placed (dashed) rate of each run's periodic
-    evaluations, against env steps and against wall-clock minutes of training. ``reference``:
+    """Success (solid, with its 95 % interval) and placed (dashed; where the task places) rate
+    of each run's periodic evaluations, against env steps and against wall-clock minutes of
+    training. ``reference``:
     a JSON list of ``{"label", "env_steps_per_s"}`` (another recipe's measured training
     throughput on the same machine), drawn on the steps axis at the step count it reaches in
     the longest run's wall time. A fine-tuning run (``--init-from``) is drawn after the steps
@@ -75,7 +77,8 @@ def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) 
         for axis, x in ((by_steps, steps), (by_time, minutes)):
             axis.plot(x, success, "-o", color=color, ms=3, label=f"{run_label(run)}: success")
             axis.fill_between(x, low, high, color=color, alpha=0.15)
-            axis.plot(x, placed, "--", color=color, label=f"{run_label(run)}: placed")
+            if any(placed):  # tasks without placing report 0 throughout
+                axis.plot(x, placed, "--", color=color, label=f"{run_label(run)}: placed")
     if reference is not None and longest > 0:
         for index, item in enumerate(json.loads(Path(reference).read_text())):
             reached = float(item["env_steps_per_s"]) * longest * 60
@@ -101,87 +104,180 @@ def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) 
     plt.close(figure)
 
 
-def _evaluate_file(model: Path, episodes: int, quiet: bool) -> dict[str, Any]:
-    from .cli import main
+#: Rows of the table that are not model files: the floor and the ceiling of every group.
+BASELINES = ("random", "scripted")
 
-    with tempfile.TemporaryDirectory() as folder:
-        report = Path(folder) / "eval.json"
-        argv = ["eval", "--policy", str(model), "--episodes", str(episodes), "--json", str(report)]
-        if quiet:
-            argv.append("--quiet")
-        code = main(argv)
-        if code != 0:
-            raise InvalidArgumentError(f"panda-rapier eval failed on {model} (exit {code})")
-        return dict(json.loads(report.read_text()))
+
+def _evaluate_row(
+    spec: str, env_id: str | None, episodes: int, progress: bool, label: str
+) -> tuple[dict[str, Any], list[Any]]:
+    """``panda-rapier eval --policy SPEC [--env-id ENV_ID] --episodes EPISODES`` as a library
+    call (the same resolution of the policy and its environment): the summary and the
+    episodes."""
+    from tqdm import tqdm
+
+    from .evaluation import evaluate
+    from .inference import resolve_policy
+
+    resolved = resolve_policy(spec, env_id)
+    with tqdm(total=episodes, desc=label, unit="ep", disable=not progress, leave=False) as bar:
+        report = evaluate(
+            resolved.policy,
+            resolved.config,
+            episodes,
+            progress=lambda done: bar.update(done - bar.n),
+            **resolved.observation,
+        )
+    report.policy = resolved.label
+    return report.summary(), report.episodes
+
+
+def _group_of(env_id: str) -> tuple[str, str]:
+    fixed = variant(env_id)
+    return fixed["task"], fixed["control_mode"]
 
 
 def models_table(
     folder: Path, episodes: int = 1000, progress: bool = True
 ) -> tuple[str, dict[str, Any]]:
-    """Evaluates every ``*.zip`` in ``folder`` with ``panda-rapier eval --policy MODEL.zip``
-    (seeds ``0 .. episodes - 1``, which no training run uses) and returns the markdown of
-    ``folder``'s README (one row per model) and the evaluations (per model: the summary and
-    each episode's success and placed flags as strings of 0 and 1)."""
+    """The benchmark table of ``folder``'s README and the evaluations behind it.
+
+    Grouped by task and action mode. Each group has a uniformly random policy, the scripted
+    expert (both on the group's sparse id, default options) and every ``*.zip`` in
+    ``folder`` trained on one of the group's ids. Every row is evaluated as
+    ``panda-rapier eval --policy SPEC`` runs it: seeds ``0 .. episodes - 1``, which no
+    training run uses.
+
+    Returns the markdown and the evaluations: per row, the summary and each episode's success
+    and placed flags as strings of 0 and 1. A model's key is its file name; a baseline's is
+    ``"random panda_rapier/Reach-v0"``."""
+    from tqdm import tqdm
+
     models = sorted(Path(folder).glob("*.zip"))
     if not models:
         raise InvalidArgumentError(f"no .zip models in {folder}")
-    rows = []
-    commands = []
-    records: dict[str, Any] = {}
+    runs: dict[Path, dict[str, Any]] = {}
     for model in models:
         run = read_run_info(model)
         if run is None:
             raise InvalidArgumentError(f"{model} has no run record: was it made by train?")
-        summary = _evaluate_file(model, episodes, quiet=not progress)
-        episodes_run = summary.pop("episode_records")
-        summary.pop("failed_episodes", None)
-        records[model.name] = {
-            **summary,
-            "success_by_episode": "".join("1" if e["success"] else "0" for e in episodes_run),
-            "placed_by_episode": "".join("1" if e["placed"] else "0" for e in episodes_run),
-        }
-        low, high = summary["success_ci95"]
-        options = json.dumps(run.get("env_kwargs") or {}, sort_keys=True)
-        # A fine-tuned model's cost includes the model it started from.
-        source = (run.get("init_from") or {}).get("run") or {}
-        env_steps = run["env_steps"] + int(source.get("env_steps", 0))
-        wall_time = run["wall_time_s"] + float(source.get("wall_time_s", 0.0))
-        rows.append(
-            f"| `{model.name}` | {run['algo']} | `{run['env_id']}` | `{options}` "
-            f"| {env_steps:,} | {wall_time / 60:.1f} "
-            f"| {summary['success_rate']:.3f} ({low:.3f}-{high:.3f}) "
-            f"| {summary['placed_rate']:.3f} |"
-        )
-        steps = [f"`{shlex.join(run['command'])}`, then copy `{_out_of(run['command'])}/"
-                 f"{_saved_as(run)}` here as `{model.name}`"]  # fmt: skip
-        if source:
-            steps.insert(0, f"`{shlex.join(source['command'])}` (its `{_saved_as(source)}` is "
-                            f"the `--init-from` model: {source.get('env_steps', 0):,} steps, "
-                            f"{float(source.get('wall_time_s', 0)) / 60:.1f} min, included in "
-                            "the row)")  # fmt: skip
-        commands.append(
-            f"- `{model.name}`: "
-            + "; then ".join(steps)
-            + (f" ({run['note']})" if run.get("note") else "")
-        )
-    header = (
-        "# Trained policies\n\n"
-        f"Generated by `panda-rapier models-table {folder.as_posix()}`: every row is "
-        f"`panda-rapier eval --policy {folder.as_posix()}/NAME.zip` (no other flag: the "
-        f"environment id and options are stored in the zip) on {episodes} episodes, seeds "
-        f"0..{episodes - 1}, which no training run uses. Wall time is training on the 2-core "
-        "development machine, evaluations excluded; env steps include the expert's "
-        "demonstrations and every rollout the learner drove. Success: the cube within 5 cm of "
-        "the goal at the last step (95 % Wilson interval); placed: also released and at rest "
-        "on the platform. Actions come from the native float64 network (the same bits on "
-        "every CPU): an evaluation repeats these episodes exactly wherever the package "
-        "version, CPU architecture and C library recorded in `evaluations.json` match, and "
-        "these rates within their interval elsewhere (`docs/reproducibility.md`).\n\n"
-        "| model | algorithm | env id | options | env steps | wall time (min) "
-        "| success (95 % CI) | placed |\n|---|---|---|---|---|---|---|---|\n"
+        runs[model] = run
+    groups = [
+        (task, mode)
+        for task in TASK_NAMES
+        for mode in ("ee", "joints")
+        if any(_group_of(run["env_id"]) == (task, mode) for run in runs.values())
+    ]
+    records: dict[str, Any] = {}
+    sections: list[str] = []
+    commands: list[str] = []
+    total = len(groups) * len(BASELINES) + len(models)
+    with tqdm(total=total, desc="rows", unit="row", disable=not progress) as rows_bar:
+
+        def evaluated(key: str, spec: str, env_id: str | None) -> dict[str, Any]:
+            summary, episodes_run = _evaluate_row(spec, env_id, episodes, progress, key)
+            records[key] = {
+                **summary,
+                "success_by_episode": "".join("1" if e.success else "0" for e in episodes_run),
+                "placed_by_episode": "".join("1" if e.placed else "0" for e in episodes_run),
+            }
+            rows_bar.update(1)
+            return summary
+
+        for task, mode in groups:
+            base_id = task_id(task, mode)
+            rows: list[tuple[str, str, str, str, str, dict[str, Any]]] = []
+            for spec in BASELINES:
+                summary = evaluated(f"{spec} {base_id}", spec, base_id)
+                how = "uniform actions" if spec == "random" else "hand-written expert"
+                rows.append((spec, how, "", "-", "-", summary))
+            for model, run in runs.items():
+                if _group_of(run["env_id"]) != (task, mode):
+                    continue
+                summary = evaluated(model.name, str(model), None)
+                options = json.dumps(run.get("env_kwargs") or {}, sort_keys=True)
+                # A fine-tuned model's cost includes the model it started from.
+                source = (run.get("init_from") or {}).get("run") or {}
+                env_steps = run["env_steps"] + int(source.get("env_steps", 0))
+                wall_time = run["wall_time_s"] + float(source.get("wall_time_s", 0.0))
+                how = f"{run['algo']} on `{run['env_id'].split('/')[-1]}`"
+                rows.append(
+                    (f"`{model.name}`", how, options, f"{env_steps:,}",
+                     f"{wall_time / 60:.1f}", summary)
+                )  # fmt: skip
+                commands.append(_reproduce(model, run, source))
+            places = any(summary["placed_rate"] > 0 for *_, summary in rows[:2])
+            sections.append(
+                f"### {TASK_NAMES[task]}, {'joint' if mode == 'joints' else 'end-effector'} "
+                f"control (`{base_id.split('/')[-1]}`)\n\n"
+                "| policy | trained | options | env steps | wall time (min) "
+                "| success (95 % CI) | placed |\n|---|---|---|---|---|---|---|\n"
+                + "\n".join(_row(*row, places=places) for row in rows)
+            )
+    baseline_commands = (
+        "- random and scripted rows: `panda-rapier eval --policy random --env-id ID "
+        f"--episodes {episodes}` (and `--policy scripted`), ID the group's id"
     )
-    text = header + "\n".join(rows) + "\n\n## Reproduce\n\n" + "\n".join(commands) + "\n"
+    text = (
+        _header(folder, episodes)
+        + "\n\n".join(sections)
+        + "\n\n## Reproduce\n\n"
+        + "\n".join([baseline_commands, *commands])
+        + "\n"
+    )
     return text, records
+
+
+def _row(
+    name: str,
+    how: str,
+    options: str,
+    env_steps: str,
+    minutes: str,
+    summary: dict[str, Any],
+    places: bool,
+) -> str:
+    low, high = summary["success_ci95"]
+    placed = f"{summary['placed_rate']:.3f}" if places else "-"
+    return (
+        f"| {name} | {how} | {f'`{options}`' if options else '-'} | {env_steps} | {minutes} "
+        f"| {summary['success_rate']:.3f} ({low:.3f}-{high:.3f}) | {placed} |"
+    )
+
+
+def _header(folder: Path, episodes: int) -> str:
+    where = folder.as_posix()
+    return (
+        "# Benchmark: trained policies and baselines\n\n"
+        f"Generated by `panda-rapier models-table {where}`. One table per task and action "
+        "mode: a uniformly random policy, the scripted expert and every model shipped here, "
+        f"each evaluated as `panda-rapier eval --policy random|scripted|{where}/NAME.zip` "
+        "(a model needs no other flag: its environment id and options are stored in the zip) "
+        f"on the same {episodes} episodes, seeds 0..{episodes - 1}, which no training run "
+        "uses. Wall time is training on the 2-core development machine, evaluations "
+        "excluded; env steps include the expert's demonstrations and every rollout the "
+        "learner drove. Success as the task defines it (95 % Wilson interval); placed: also "
+        "released and at rest (tasks that place). Models act through the native float64 "
+        "network (the same bits on every CPU): an evaluation repeats these episodes exactly "
+        "wherever the package version, CPU architecture and C library recorded in "
+        "`evaluations.json` match, and these rates within their interval elsewhere "
+        "(`docs/reproducibility.md`).\n\n"
+    )
+
+
+def _reproduce(model: Path, run: dict[str, Any], source: dict[str, Any]) -> str:
+    steps = [f"`{shlex.join(run['command'])}`, then copy `{_out_of(run['command'])}/"
+             f"{_saved_as(run)}` here as `{model.name}`"]  # fmt: skip
+    if source:
+        steps.insert(0, f"`{shlex.join(source['command'])}` (its `{_saved_as(source)}` is "
+                        f"the `--init-from` model: {source.get('env_steps', 0):,} steps, "
+                        f"{float(source.get('wall_time_s', 0)) / 60:.1f} min, included in "
+                        "the row)")  # fmt: skip
+    return (
+        f"- `{model.name}`: "
+        + "; then ".join(steps)
+        + (f" ({run['note']})" if run.get("note") else "")
+    )
 
 
 def _saved_as(run: dict[str, Any]) -> str:

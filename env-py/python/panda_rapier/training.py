@@ -51,6 +51,7 @@ from typing import Any
 
 from . import __version__, checkpoint
 from .errors import ConfigError, InvalidArgumentError
+from .model_file import RUN_MEMBER, read_run_info
 from .registration import ENV_IDS, env_config
 
 __all__ = [
@@ -69,8 +70,6 @@ ALGORITHMS = ("ppo", "sac", "tqc", "bc")
 TRAIN_FIRST_SEED = 1_000_000_000
 #: First seed of the periodic evaluations during training.
 VALIDATION_FIRST_SEED = 500_000_000
-#: Name of the run record stored inside a saved model zip.
-RUN_MEMBER = "panda_rapier_run.json"
 
 # Recipe keys that configure the run rather than the algorithm (rl-zoo3's names).
 # `monitor_kwargs` only matters to rl-zoo3 (its Monitor wrappers); the native VecEnv reports
@@ -223,21 +222,6 @@ def versions() -> dict[str, str]:
         except ImportError:
             pass
     return found
-
-
-def read_run_info(model_path: str | Path) -> dict[str, Any] | None:
-    """The run record of a model saved by ``panda-rapier train``: the ``panda_rapier_run.json``
-    inside the zip, else a ``run.json`` beside it; ``None`` if there is neither."""
-    path = Path(model_path)
-    try:
-        with zipfile.ZipFile(path) as archive:
-            return dict(json.loads(archive.read(RUN_MEMBER)))
-    except (OSError, KeyError, ValueError, zipfile.BadZipFile):
-        pass
-    try:
-        return dict(json.loads((path.parent / "run.json").read_text()))
-    except (OSError, ValueError):
-        return None
 
 
 def save_model(model: Any, path: Path, run: Mapping[str, Any]) -> None:
