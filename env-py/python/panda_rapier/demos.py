@@ -265,7 +265,7 @@ def to_demonstrations(dataset: Any) -> Any:
     spaces) as :class:`panda_rapier.imitation.Demonstrations`: every state an action was taken
     in, as a flat row, with that action, for :func:`~panda_rapier.imitation.behaviour_cloning`.
     """
-    from .imitation import Demonstrations
+    from .rollouts import Demonstrations
 
     spec = dataset.spec.env_spec
     if spec is None or spec.id not in ENV_IDS:

@@ -29,6 +29,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
 from .inference import CLIP
+from .rollouts import collect
 
 __all__ = [
     "FitNormalizerCallback",
@@ -100,8 +101,6 @@ def expert_statistics(
 ) -> np.ndarray:
     """The flat observations of ``episodes`` seeded episodes of the scripted expert in the
     environment ``config`` (deterministic: the same rows every time)."""
-    from .imitation import collect
-
     demos, _ = collect(config, episodes, first_seed=first_seed)
     return demos.observations
 
