@@ -511,6 +511,37 @@ def test_fit_normalizer_callback_on_gym_make_envs() -> None:
     assert (model.policy.features_extractor.scale.numpy() != 1).any()
 
 
+def test_update_threads_give_the_update_every_core_and_rollouts_one() -> None:
+    """torch's thread count follows the phase: rollout threads while the environments step,
+    update threads in PPO's gradient steps, and what it was once training ends."""
+    from panda_rapier.threads import UpdateThreads, torch_threads
+
+    env = make_vec_env("panda_rapier/ReachDense-v0", n_envs=2, seed=0)
+    model = _ppo(env, pi=(16,), n_steps=8, batch_size=16, n_epochs=1)
+    seen: dict[str, set[int]] = {"rollout": set(), "update": set()}
+    train = model.train
+
+    def spying_train() -> None:
+        seen["update"].add(th.get_num_threads())
+        train()
+
+    model.train = spying_train  # type: ignore[method-assign]
+
+    class Spy(UpdateThreads):
+        def _on_step(self) -> bool:
+            seen["rollout"].add(th.get_num_threads())
+            return True
+
+    before = th.get_num_threads()
+    with torch_threads(1):
+        model.learn(32, callback=Spy(update=3, rollout=1))
+        assert th.get_num_threads() == 1
+    assert th.get_num_threads() == before
+    assert seen == {"rollout": {1}, "update": {3}}
+    with pytest.raises(ValueError, match="update threads"):
+        UpdateThreads(update=0)
+
+
 def test_min_action_std_keeps_the_gripper_exploring() -> None:
     """The floor raises only the chosen dimension's log_std, before every rollout; policies
     without a state-independent log_std are refused, not silently ignored."""

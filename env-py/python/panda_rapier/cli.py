@@ -246,7 +246,15 @@ def _parser() -> argparse.ArgumentParser:
         "--torch-threads",
         type=_positive,
         default=1,
-        help="torch threads (default 1: more fight the environment's threads for the cores)",
+        help="torch threads while environments step (default 1: more fight the "
+        "environment's threads for the cores)",
+    )
+    train.add_argument(
+        "--update-threads",
+        type=_positive,
+        default=None,
+        help="torch threads while nothing else runs: PPO's updates, behaviour cloning's fits "
+        "(default: every core)",
     )
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.set_defaults(run=_run_train)
@@ -379,6 +387,7 @@ def _run_train(args: argparse.Namespace) -> int:
         init_from=args.init_from,
         trust=args.trust_model_file,
         torch_threads=args.torch_threads,
+        update_threads=args.update_threads,
         progress=not args.quiet,
         command=["panda-rapier", *args.argv],
     )

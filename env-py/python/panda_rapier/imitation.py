@@ -31,6 +31,7 @@ from . import _common
 from .errors import InvalidArgumentError
 from .normalization import fit_normalizers
 from .rollouts import Demonstrations, RolloutStats, collect
+from .threads import torch_threads
 
 __all__ = ["Demonstrations", "RolloutStats", "behaviour_cloning", "collect", "dagger"]
 
@@ -107,6 +108,7 @@ def dagger(
     learning_rate: float = 1e-3,
     num_envs: int = 32,
     num_threads: int | None = None,
+    fit_threads: int | None = None,
     on_round: Callable[[int, Demonstrations, RolloutStats | None, list[float]], None] | None = None,
     progress: Callable[[str, int, int], None] | None = None,
 ) -> Demonstrations:
@@ -114,7 +116,9 @@ def dagger(
     driving ``episodes_per_round`` episodes with the learner, labelling them with the expert and
     refitting on everything gathered, and finally ``final_epochs`` more passes over all of it
     (a last fit whose learning rate decays over more steps). Episode seeds count up from
-    ``first_seed`` without repeats. The normaliser is fitted to the expert's states.
+    ``first_seed`` without repeats. The normaliser is fitted to the expert's states. torch
+    runs the fits on ``fit_threads`` threads (``None``: as it is set; no environment steps
+    during a fit, so every core can go to it) and everything else as it is set.
     ``on_round(r, data, stats, losses)`` is called after each fit (``stats``: how the learner
     drove in round ``r``; ``None`` for round 0, the expert's demonstrations, and for the final
     fit). Returns all the data gathered."""
@@ -135,9 +139,10 @@ def dagger(
     )
     seed += demo_episodes
     fit_normalizers(model.policy, data.observations)
-    losses = behaviour_cloning(
-        model, data, epochs=epochs, batch_size=batch_size, learning_rate=learning_rate, seed=0
-    )
+    with torch_threads(fit_threads):
+        losses = behaviour_cloning(
+            model, data, epochs=epochs, batch_size=batch_size, learning_rate=learning_rate, seed=0
+        )
     if on_round is not None:
         on_round(0, data, None, losses)
     for r in range(1, rounds + 1):
@@ -152,25 +157,27 @@ def dagger(
         )
         seed += episodes_per_round
         data.extend(new)
-        losses = behaviour_cloning(
-            model,
-            data,
-            epochs=epochs_per_round,
-            batch_size=batch_size,
-            learning_rate=learning_rate,
-            seed=r,
-        )
+        with torch_threads(fit_threads):
+            losses = behaviour_cloning(
+                model,
+                data,
+                epochs=epochs_per_round,
+                batch_size=batch_size,
+                learning_rate=learning_rate,
+                seed=r,
+            )
         if on_round is not None:
             on_round(r, data, stats, losses)
     if final_epochs > 0:
-        losses = behaviour_cloning(
-            model,
-            data,
-            epochs=final_epochs,
-            batch_size=batch_size,
-            learning_rate=learning_rate,
-            seed=rounds + 1,
-        )
+        with torch_threads(fit_threads):
+            losses = behaviour_cloning(
+                model,
+                data,
+                epochs=final_epochs,
+                batch_size=batch_size,
+                learning_rate=learning_rate,
+                seed=rounds + 1,
+            )
         if on_round is not None:
             on_round(rounds + 1, data, None, losses)
     return data

@@ -1,9 +1,5 @@
 """Training: what ``panda-rapier train`` runs.
 
-Over 600 lines: one command's run directory, resuming, recipes, periodic evaluations and
-progress display live together; what other commands share sits in ``evaluation`` and
-``reporting``.
-
 A run trains one algorithm on one registered id with the native stable-baselines3 ``VecEnv``
 and writes everything to its output directory:
 
@@ -366,6 +362,7 @@ def train(
     init_from: str | Path | None = None,
     trust: bool = False,
     torch_threads: int = 1,
+    update_threads: int | None = None,
     progress: bool = True,
     command: list[str] | None = None,
     say: Callable[[str], None] = print,
@@ -382,8 +379,12 @@ def train(
     buffer this user's runs did not write). ``on_evaluation`` is called with each periodic
     evaluation's line of ``evaluations.jsonl`` (env steps, wall time, success and placed rate,
     mean return), after it is written and ``best.zip`` is saved: :mod:`panda_rapier.tuning`
-    reports them to Ray Tune."""
+    reports them to Ray Tune. torch runs on ``torch_threads`` threads while environments step
+    and on ``update_threads`` (``None``: every core) while nothing else runs: PPO's updates and
+    behaviour cloning's fits (:mod:`panda_rapier.threads`)."""
     import torch as th
+
+    from .threads import UpdateThreads, all_cores
 
     if env_id not in ENV_IDS:
         raise ConfigError(f"unknown environment id {env_id!r}; see panda_rapier.ENV_IDS")
@@ -423,6 +424,7 @@ def train(
         "train_first_seed": train_seed,
         "validation_first_seed": VALIDATION_FIRST_SEED,
         "torch_threads": torch_threads,
+        "update_threads": update_threads if update_threads is not None else all_cores(),
         "command": command if command is not None else sys.argv,
         "versions": versions(),
         "machine": {"cpus": _cpu_count(), "platform": platform.platform()},
@@ -446,7 +448,7 @@ def train(
             )
         return _train_bc(
             run, recipe, config, out, n_envs, num_threads, eval_episodes, say, on_evaluation,
-            show_progress=progress,
+            show_progress=progress, fit_threads=run["update_threads"],
         )  # fmt: skip
 
     from .sb3 import make_vec_env
@@ -494,10 +496,12 @@ def train(
         on_evaluation,
     )
     (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
-    callbacks = [
-        *_callbacks(recipe.get("callback")),
-        _sb3_callback(recorder, eval_every or 0, checkpoint_every or 0, state),
-    ]
+    periodic = _sb3_callback(recorder, eval_every or 0, checkpoint_every or 0, state)
+    callbacks = [*_callbacks(recipe.get("callback")), periodic]
+    from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+
+    if isinstance(model, OnPolicyAlgorithm):  # rollouts and updates take turns
+        callbacks.append(UpdateThreads(run["update_threads"], rollout=torch_threads))
     remaining = total - int(model.num_timesteps)
     if remaining > 0:
         model.learn(
@@ -515,7 +519,7 @@ def train(
     save_model(model, out / "model.zip", run)
     (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
     if remaining > 0:
-        callbacks[-1].save_checkpoint()  # a later --resume with more --timesteps goes on
+        periodic.save_checkpoint()  # a later --resume with more --timesteps goes on
     return run
 
 
@@ -562,9 +566,11 @@ def _train_bc(
     say: Callable[[str], None],
     on_evaluation: Callable[[dict[str, Any]], None] | None = None,
     show_progress: bool = True,
+    fit_threads: int | None = None,
 ) -> dict[str, Any]:
     """Behaviour cloning and DAgger from the scripted expert (see :mod:`.imitation`); progress
-    bars per collection round unless ``show_progress`` is false (``--quiet``)."""
+    bars per collection round unless ``show_progress`` is false (``--quiet``); the fits on
+    ``fit_threads`` torch threads."""
     from stable_baselines3 import PPO
     from tqdm import tqdm
 
@@ -627,6 +633,7 @@ def _train_bc(
         learning_rate=float(recipe["learning_rate"]),
         num_envs=n,
         num_threads=num_threads,
+        fit_threads=fit_threads,
         on_round=on_round,
         progress=progress if show_progress else None,
     )
