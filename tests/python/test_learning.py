@@ -498,6 +498,40 @@ def test_benchmark_baselines_reproduce_their_recorded_evaluations() -> None:
             _assert_row_shows(spec, recorded, parts[1].split("###")[0])
 
 
+#: The README's short table: its columns after the task, and the model each shows.
+README_COLUMNS = (
+    "bc-dagger-{task}-v0.zip",
+    "bc-dagger-{task}Joints-v0.zip",
+    "ppo-{task}Dense-v0.zip",
+    "ppo-{task}JointsDense-v0.zip",
+)
+
+
+def test_readme_headline_table_shows_the_recorded_evaluations() -> None:
+    """The README's short table is typed by hand: one row per task, each cell the success of
+    the model its column names (from the expert / from scratch, ee / joints control) as
+    evaluations.json records it, or "-" where models/ has no such model."""
+    from panda_rapier.registration import TASK_NAMES
+
+    readme = (MODELS.parent / "README.md").read_text()
+    recorded = json.loads((MODELS / "evaluations.json").read_text())
+    rows = {}
+    for row in readme.splitlines():
+        cells = [c.strip() for c in row.split("|")[1:-1]]
+        if cells and cells[0].strip("`") in TASK_NAMES.values():
+            rows[cells[0].strip("`")] = cells[1:]
+    assert set(rows) == set(TASK_NAMES.values()), sorted(rows)
+    for task, cells in rows.items():
+        assert len(cells) == len(README_COLUMNS), (task, cells)
+        for cell, pattern in zip(cells, README_COLUMNS, strict=True):
+            name = pattern.format(task=task)
+            if name in recorded:
+                success = recorded[name]["success_rate"]
+                assert cell.startswith(f"{success:.3f}"), (name, cell)
+            else:
+                assert cell == "-", (name, cell)
+
+
 def test_fit_normalizer_callback_on_gym_make_envs() -> None:
     """rl-zoo3 trains on DummyVecEnv(gym.make(...)), whose environments leave the time limit
     to Gymnasium's TimeLimit; the recipe's callback still fits the normaliser there."""

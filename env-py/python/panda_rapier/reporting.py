@@ -60,6 +60,7 @@ def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) 
         raise ImportError("curves need matplotlib: pip install matplotlib") from error
     figure, (by_steps, by_time) = plt.subplots(1, 2, figsize=(13, 4.8))
     longest = 0.0
+    drew_placed = False
     for index, run_dir in enumerate(runs):
         lines = _evaluations(Path(run_dir))
         run = json.loads((Path(run_dir) / "run.json").read_text())
@@ -78,6 +79,7 @@ def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) 
             axis.plot(x, success, "-o", color=color, ms=3, label=f"{run_label(run)}: success")
             axis.fill_between(x, low, high, color=color, alpha=0.15)
             if any(placed):  # tasks without placing report 0 throughout
+                drew_placed = True
                 axis.plot(x, placed, "--", color=color, label=f"{run_label(run)}: placed")
     if reference is not None and longest > 0:
         for index, item in enumerate(json.loads(Path(reference).read_text())):
@@ -97,7 +99,8 @@ def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) 
         axis.set_ylim(-0.02, 1.02)
         axis.grid(alpha=0.3)
     by_time.legend(fontsize=7, loc="lower right")
-    figure.suptitle("panda_rapier: learning curves (solid: success, dashed: cube placed)")
+    what = "solid: success, dashed: placed" if drew_placed else "success"
+    figure.suptitle(f"panda_rapier: learning curves ({what})")
     figure.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
     figure.savefig(out, dpi=110)
