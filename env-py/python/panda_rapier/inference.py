@@ -497,9 +497,10 @@ def resolve_policy(
         )
     run = read_run_info(path) or {}
     recorded_id = run.get("env_id") if run.get("env_id") in ENV_IDS else None
-    recorded = run.get("env_kwargs") if isinstance(run.get("env_kwargs"), dict) else {}
+    options = run.get("env_kwargs")
+    recorded: dict[str, Any] = dict(options) if isinstance(options, dict) else {}
     chosen = env_id or recorded_id or DEFAULT_ENV_ID
-    overrides = {**(dict(recorded) if chosen == recorded_id else {}), **overrides}
+    overrides = {**(recorded if chosen == recorded_id else {}), **overrides}
     policy, overrides, observation, fallback = load_policy(
         path, chosen, overrides, algo, inference, trust
     )

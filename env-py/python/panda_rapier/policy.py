@@ -233,12 +233,12 @@ class RandomPolicy:
         for k in list(self._streams):
             if k not in live:
                 del self._streams[k]
-        for row, k in enumerate(running):
-            if k is None:
+        for row, episode in enumerate(running):
+            if episode is None:
                 continue
-            stream = self._streams.get(k)
+            stream = self._streams.get(episode)
             if stream is None:
-                stream = self._streams[k] = np.random.default_rng([self.seed, k])
+                stream = self._streams[episode] = np.random.default_rng([self.seed, episode])
             actions[row] = stream.uniform(-1.0, 1.0, self.action_dim)
         return actions
 
