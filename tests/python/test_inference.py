@@ -25,7 +25,7 @@ import torch as th
 from conftest import WritesAFile, hostile_payload, poisoned
 from stable_baselines3 import PPO, SAC, TD3
 
-from panda_rapier import InvalidArgumentError
+from panda_rapier import InvalidArgumentError, _common
 from panda_rapier.cli import main
 from panda_rapier.evaluation import (
     OUTCOME_FIELDS,
@@ -74,8 +74,10 @@ def test_native_network_is_the_torch_policy_up_to_rounding(name: str) -> None:
     rows = _states(name)
     actions = native.act(rows)
     assert actions.dtype == np.float32 and actions.shape == (len(rows), native.action_dim)
-    obs = {k: v for k, v in zip(("achieved_goal", "desired_goal", "observation"),
-                                np.split(rows, [3, 6], axis=1), strict=True)}  # fmt: skip
+    # Split by the model's own task layout (Stack's goals are 6-D).
+    run = read_run_info(MODELS / name)
+    schema = _common.Schema.of(_common.config_json(env_config(run["env_id"], **run["env_kwargs"])))
+    obs = _common.split_observation(rows, schema)
     single, _ = model.predict(obs, deterministic=True)
     np.testing.assert_allclose(actions, single, atol=1e-4)
     # One policy, two ways in: a model in memory gives the same bits as its file.
