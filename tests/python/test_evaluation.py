@@ -74,7 +74,7 @@ def test_random_policy_acts_by_episode() -> None:
     assert [r for *_, r, _ in outcomes(other)] != [r for *_, r, _ in outcomes(one)]
     # Called directly: actions in [-1, 1] of the task's action shape, one row per observation.
     action, _ = RandomPolicy("panda_rapier/ReachJoints-v0").predict(
-        np.zeros((3, RandomPolicy("panda_rapier/ReachJoints-v0").observation_dim), np.float32)
+        np.zeros((3, RandomPolicy("panda_rapier/ReachJoints-v0").flat_dim), np.float32)
     )
     assert action.shape == (3, 8) and np.all(np.abs(action) <= 1)
     with pytest.raises(InvalidArgumentError, match="seed"):

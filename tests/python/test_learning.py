@@ -21,7 +21,7 @@ import torch as th  # noqa: E402
 from conftest import hostile_payload, poisoned  # noqa: E402
 from stable_baselines3 import PPO  # noqa: E402
 
-from panda_rapier import ConfigError, InvalidArgumentError  # noqa: E402
+from panda_rapier import ConfigError, InvalidArgumentError, RandomPolicy  # noqa: E402
 from panda_rapier.cli import main  # noqa: E402
 from panda_rapier.evaluation import evaluate  # noqa: E402
 from panda_rapier.imitation import Demonstrations, behaviour_cloning, collect  # noqa: E402
@@ -33,18 +33,6 @@ from panda_rapier.training import RUN_MEMBER, load_recipe, read_run_info  # noqa
 th.set_num_threads(1)
 
 TEST_SEED = 0  # test episodes: seeds 0, 1, ...; the training below starts at 10**6
-
-
-class RandomPolicy:
-    """Uniform random actions, seeded."""
-
-    def __init__(self, action_dim: int, seed: int) -> None:
-        self.rng = np.random.default_rng(seed)
-        self.action_dim = action_dim
-
-    def predict(self, obs, deterministic=True):
-        n = obs["observation"].shape[0]
-        return self.rng.uniform(-1, 1, (n, self.action_dim)).astype(np.float32), None
 
 
 def _ppo(env, pi=(256, 256), **kwargs):
@@ -76,7 +64,7 @@ def test_behaviour_cloning_from_200_expert_episodes_places_the_cube() -> None:
     losses = behaviour_cloning(model, demos, epochs=30, seed=0)
     assert losses[-1] < 0.5 * losses[0]
     cloned = evaluate(model, config, 100, first_seed=TEST_SEED)
-    random = evaluate(RandomPolicy(4, 0), config, 100, first_seed=TEST_SEED)
+    random = evaluate(RandomPolicy(config), config, 100, first_seed=TEST_SEED)
     assert random.success_rate <= 0.05, random.summary()
     assert cloned.success_rate >= 0.4, cloned.summary()
     assert cloned.placed_rate >= 0.4, cloned.summary()
@@ -116,8 +104,6 @@ def test_ppo_learns_reach_from_scratch() -> None:
     steps of PPO on ReachDense-v0 take the deterministic policy's success on 100 test seeds
     from the random policy's to at least 0.5 (measured when written: random 0.00, PPO 0.78
     after 19 s on 2 shared cores; 0.93 after 61,440 steps)."""
-    from panda_rapier import RandomPolicy
-
     env_id = "panda_rapier/ReachDense-v0"
     config = env_config(env_id)
     env = make_vec_env(env_id, n_envs=32, seed=10**6)
@@ -425,111 +411,6 @@ def _flatten(tree: Any, prefix: str = "") -> dict[str, Any]:
             k: v for i, sub in enumerate(tree) for k, v in _flatten(sub, f"{prefix}{i}/").items()
         }
     return {prefix: tree}
-
-
-MODELS = Path(__file__).resolve().parents[2] / "models"
-#: Episodes the reproduction test runs per model: enough that its statistical branch (another
-#: machine) fails a 10-point drop in success 98 % of the time (evaluation.check_reproduction).
-REPRODUCTION_EPISODES = 300
-
-
-@pytest.mark.parametrize("name", sorted(p.name for p in MODELS.glob("*.zip")))
-def test_shipped_model_reproduces_its_recorded_evaluation(name: str) -> None:
-    """Each model in models/ is evaluated as `panda-rapier eval --policy models/NAME.zip`
-    does (the environment recorded in the zip, the native float64 network, 32 environments,
-    seeds from 0) on the recorded run's first 300 episodes. Where the recorded environment's
-    outcome fields match this machine's (package version, CPU architecture, C library: not the
-    CPU's vector width, on which nothing here depends), every episode's success and placement
-    must repeat exactly; elsewhere both rates must not fall significantly below the recorded
-    ones (check_reproduction). The README row is the recorded evaluation's."""
-    from panda_rapier.evaluation import check_reproduction
-    from panda_rapier.inference import NATIVE, PolicyNetwork
-
-    recorded = json.loads((MODELS / "evaluations.json").read_text())[name]
-    run = read_run_info(MODELS / name)
-    assert run is not None
-    config = env_config(run["env_id"], **run["env_kwargs"])
-    policy = PolicyNetwork.from_zip(MODELS / name)
-    report = evaluate(policy, config, REPRODUCTION_EPISODES, num_envs=32, first_seed=0)
-    assert report.inference == recorded["inference"] == NATIVE
-    check = check_reproduction(recorded, report)
-    print(name, check)
-    assert check.passed, check
-    _assert_row_shows(f"`{name}`", recorded, (MODELS / "README.md").read_text())
-
-
-def _assert_row_shows(label: str, recorded: dict[str, Any], table: str) -> None:
-    """``table``'s row of ``label`` shows the recorded evaluation."""
-    low, high = recorded["success_ci95"]
-    rate, placed_rate = recorded["success_rate"], recorded["placed_rate"]
-    rows = [r for r in table.splitlines() if r.startswith(f"| {label} |")]
-    assert rows, f"no row for {label} in models/README.md"
-    wanted = (f"| {rate:.3f} ({low:.3f}-{high:.3f}) | {placed_rate:.3f} |",
-              f"| {rate:.3f} ({low:.3f}-{high:.3f}) | - |")  # fmt: skip
-    assert any(row.endswith(wanted) for row in rows), (label, rows)
-
-
-#: Episodes per baseline row the reproduction test runs (the rows' evaluations are cheap).
-BASELINE_EPISODES = 100
-
-
-def test_benchmark_baselines_reproduce_their_recorded_evaluations() -> None:
-    """The random and scripted rows of models/README.md: every task and action mode with a
-    shipped model has both, recorded in evaluations.json, and their first episodes repeat
-    (exactly where the outcome fields match, statistically elsewhere)."""
-    from panda_rapier.evaluation import check_reproduction
-    from panda_rapier.inference import resolve_policy
-    from panda_rapier.registration import task_id, variant
-
-    recorded_all = json.loads((MODELS / "evaluations.json").read_text())
-    groups = set()
-    for model in MODELS.glob("*.zip"):
-        fixed = variant(read_run_info(model)["env_id"])
-        groups.add(task_id(fixed["task"], fixed["control_mode"]))
-    for env_id in sorted(groups):
-        for spec in ("random", "scripted"):
-            recorded = recorded_all[f"{spec} {env_id}"]
-            resolved = resolve_policy(spec, env_id)
-            report = evaluate(resolved.policy, resolved.config, BASELINE_EPISODES)
-            check = check_reproduction(recorded, report)
-            assert check.passed, (spec, env_id, check)
-            parts = (MODELS / "README.md").read_text().split(f"(`{env_id.split('/')[-1]}`)")
-            assert len(parts) == 2, f"no table for {env_id}"
-            _assert_row_shows(spec, recorded, parts[1].split("###")[0])
-
-
-#: The README's short table: its columns after the task, and the model each shows.
-README_COLUMNS = (
-    "bc-dagger-{task}-v0.zip",
-    "bc-dagger-{task}Joints-v0.zip",
-    "ppo-{task}Dense-v0.zip",
-    "ppo-{task}JointsDense-v0.zip",
-)
-
-
-def test_readme_headline_table_shows_the_recorded_evaluations() -> None:
-    """The README's short table is typed by hand: one row per task, each cell the success of
-    the model its column names (from the expert / from scratch, ee / joints control) as
-    evaluations.json records it, or "-" where models/ has no such model."""
-    from panda_rapier.registration import TASK_NAMES
-
-    readme = (MODELS.parent / "README.md").read_text()
-    recorded = json.loads((MODELS / "evaluations.json").read_text())
-    rows = {}
-    for row in readme.splitlines():
-        cells = [c.strip() for c in row.split("|")[1:-1]]
-        if cells and cells[0].strip("`") in TASK_NAMES.values():
-            rows[cells[0].strip("`")] = cells[1:]
-    assert set(rows) == set(TASK_NAMES.values()), sorted(rows)
-    for task, cells in rows.items():
-        assert len(cells) == len(README_COLUMNS), (task, cells)
-        for cell, pattern in zip(cells, README_COLUMNS, strict=True):
-            name = pattern.format(task=task)
-            if name in recorded:
-                success = recorded[name]["success_rate"]
-                assert cell.startswith(f"{success:.3f}"), (name, cell)
-            else:
-                assert cell == "-", (name, cell)
 
 
 def test_fit_normalizer_callback_on_gym_make_envs() -> None:

@@ -473,13 +473,7 @@ def _run_eval(args: argparse.Namespace) -> int:
         overrides["max_episode_steps"] = args.max_episode_steps
     if args.arm is not None:
         overrides["arm"] = args.arm
-    if args.policy not in ("scripted", "random") and not Path(args.policy).is_file():
-        print(
-            f"panda-rapier eval: --policy must be 'scripted', 'random' or a model file; "
-            f"{args.policy} does not exist",
-            file=sys.stderr,
-        )
-        return 2
+    # A --policy that is neither a baseline nor a file: InvalidArgumentError, exit 2.
     resolved = resolve_policy(
         args.policy, args.env_id, overrides, args.algo, args.inference, args.trust_model_file
     )

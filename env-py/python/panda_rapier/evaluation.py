@@ -328,13 +328,17 @@ Actor = Callable[[np.ndarray, np.ndarray | None], np.ndarray]
 StepHook = Callable[[np.ndarray, np.ndarray, list[int | None]], None]
 
 
-def _actor(policy: Any, spec: ObservationSpec) -> tuple[Actor, str, str]:
-    """The policy as an :data:`Actor`, a name for it and its inference."""
+def _actor(
+    policy: Any, spec: ObservationSpec, running_seeds: Callable[[], list[int | None]]
+) -> tuple[Actor, str, str]:
+    """The policy as an :data:`Actor`, a name for it and its inference. ``running_seeds``
+    gives the seed of the episode each environment runs (``None``: idle), for a policy that
+    acts by episode (:class:`RandomPolicy`)."""
     if isinstance(policy, ScriptedPolicy):
         native = policy._native
         return (lambda flat, _images: native.act(flat)), "scripted", "scripted"
-    if isinstance(policy, RandomPolicy):  # acts by episode: evaluate() wires it
-        return (lambda flat, _images: policy.predict(flat)[0]), "random", "random"
+    if isinstance(policy, RandomPolicy):
+        return (lambda _flat, _images: policy.act_for_episodes(running_seeds())), "random", "random"
     if isinstance(policy, PolicyNetwork):
         if spec.has_images:
             raise InvalidArgumentError("a PolicyNetwork acts on state observations only")
@@ -398,21 +402,15 @@ def evaluate(
         raise ConfigError("evaluation needs a time limit: max_episode_steps must not be None")
     config_json = _common.config_json(config)
     spec = observation_spec(_common.Schema.of(config_json), obs_mode, image_size, cameras)
-    act, name, inference = _actor(policy, spec)
     evaluation = _native.Evaluation(
         config_json, episodes, min(num_envs, episodes), num_threads, seed
+    )
+    act, name, inference = _actor(
+        policy, spec, lambda: [None if k is None else seed + k for k in evaluation.running()]
     )
     if spec.has_images:
         evaluation.set_cameras(spec.cameras_json)
     full_config = json.loads(evaluation.config_json())
-    if isinstance(policy, RandomPolicy):
-        # Each episode's actions come from that episode seed's stream: the same for any
-        # number of environments.
-        def by_episode(_flat: np.ndarray, _images: np.ndarray | None) -> np.ndarray:
-            running = evaluation.running()
-            return policy.act_for_episodes([None if k is None else seed + k for k in running])
-
-        act = by_episode
 
     started = time.perf_counter()
     if recorder is not None:

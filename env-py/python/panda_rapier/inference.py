@@ -33,7 +33,8 @@ import numpy as np
 from . import _native
 from .errors import InvalidArgumentError
 from .model_file import UnsupportedModelError, read_model_file, read_run_info
-from .policy import observation_rows
+from .policy import RandomPolicy, ScriptedPolicy, observation_rows
+from .registration import DEFAULT_ENV_ID, ENV_IDS, env_config
 
 __all__ = [
     "NATIVE",
@@ -481,9 +482,6 @@ def resolve_policy(
     and options; ``env_id`` replaces the id, and then the recorded options are dropped);
     ``overrides`` (options such as ``control_mode``, ``arm``, ``max_episode_steps``) apply last.
     """
-    from .policy import RandomPolicy, ScriptedPolicy
-    from .registration import DEFAULT_ENV_ID, ENV_IDS, env_config
-
     overrides = dict(overrides or {})
     if str(spec) in ("scripted", "random"):
         chosen = env_id or DEFAULT_ENV_ID

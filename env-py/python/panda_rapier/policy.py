@@ -122,7 +122,57 @@ def observation_rows(
     return np.ascontiguousarray(flat), single
 
 
-class ScriptedPolicy:
+class _BaselinePolicy:
+    """What both baselines share: the environment configuration they act for (``source`` and
+    ``config`` as :class:`ScriptedPolicy` takes them), its spaces, and stable-baselines3's
+    ``predict`` over flat observation rows (``_act``)."""
+
+    def __init__(self, source: Any = None, **config: Any) -> None:
+        options = {**_config_of(source), **config}
+        self.config: dict[str, Any] = options
+        self.schema = _common.Schema.of(_common.config_json(options))
+        self.action_space = _common.action_space(self.schema.action_dim)
+        self.observation_space = _common.observation_space(self.schema)
+
+    @property
+    def flat_dim(self) -> int:
+        """Length of one flat observation (goals first, as ``spaces.flatten`` orders them)."""
+        return int(self.schema.flat_dim)
+
+    @property
+    def action_dim(self) -> int:
+        """Length of one action."""
+        return int(self.schema.action_dim)
+
+    def _flat(self, observation: Any) -> tuple[np.ndarray, bool]:
+        """Flat float32 rows ``(n, flat_dim)`` and whether the input was one
+        observation."""
+        return observation_rows(observation, self.flat_dim)
+
+    def _act(self, flat: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def predict(
+        self,
+        observation: Any,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> tuple[np.ndarray, None]:
+        """The action(s) for an observation, as stable-baselines3's ``predict``: a single
+        observation gives ``(action_dim,)``, a batch (leading dimension ``n``, as from a vector
+        env) gives ``(n, action_dim)``. ``state``, ``episode_start`` and ``deterministic`` are
+        accepted for compatibility and ignored; the returned state is ``None``."""
+        flat, single = self._flat(observation)
+        actions = self._act(flat)
+        return (actions[0] if single else actions), None
+
+    def __call__(self, observation: Any) -> np.ndarray:
+        """Shorthand for ``predict(observation)[0]``."""
+        return self.predict(observation)[0]
+
+
+class ScriptedPolicy(_BaselinePolicy):
     """The scripted baseline for one environment configuration.
 
     ``source`` tells which configuration: a panda_rapier environment (``gym.make`` result,
@@ -139,37 +189,13 @@ class ScriptedPolicy:
     """
 
     def __init__(self, source: Any = None, **config: Any) -> None:
-        options = {**_config_of(source), **config}
-        self._native = _native.ScriptedPolicy(_common.config_json(options))
-        self.config: dict[str, Any] = options
-        self.action_space = _common.action_space(self._native.action_dim)
-        self.schema = _common.Schema.of(_common.config_json(options))
-        self.observation_space = _common.observation_space(self.schema)
+        super().__init__(source, **config)
+        self._native = _native.ScriptedPolicy(_common.config_json(self.config))
 
-    def _flat(self, observation: Any) -> tuple[np.ndarray, bool]:
-        """Flat float32 rows ``(n, observation_dim)`` and whether the input was one
-        observation."""
-        return observation_rows(observation, int(self._native.observation_dim))
-
-    def predict(
-        self,
-        observation: Any,
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = True,
-    ) -> tuple[np.ndarray, None]:
-        """The action(s) for an observation, as stable-baselines3's ``predict``: a single
-        observation gives ``(action_dim,)``, a batch (leading dimension ``n``, as from a vector
-        env) gives ``(n, action_dim)``, computed in Rust in one call. The policy is
-        deterministic and stateless: ``state``, ``episode_start`` and ``deterministic`` are
-        accepted for compatibility and ignored; the returned state is ``None``."""
-        flat, single = self._flat(observation)
-        actions = self._native.act(flat)
-        return (actions[0] if single else actions), None
-
-    def __call__(self, observation: Any) -> np.ndarray:
-        """Shorthand for ``predict(observation)[0]``."""
-        return self.predict(observation)[0]
+    def _act(self, flat: np.ndarray) -> np.ndarray:
+        """The expert's actions for flat rows, computed in Rust in one call (deterministic and
+        stateless)."""
+        return np.asarray(self._native.act(flat))
 
     def phases(self, observation: Any) -> list[str]:
         """The phase recognised in each observation of a batch (one entry for a single
@@ -182,7 +208,7 @@ class ScriptedPolicy:
         return f"ScriptedPolicy(control_mode={self.config.get('control_mode', 'ee')!r})"
 
 
-class RandomPolicy:
+class RandomPolicy(_BaselinePolicy):
     """Uniformly random actions in ``[-1, 1]``: the floor of every benchmark table.
 
     ``source`` and ``config`` say which environment, as for :class:`ScriptedPolicy`.
@@ -197,33 +223,15 @@ class RandomPolicy:
     def __init__(self, source: Any = None, seed: int = 0, **config: Any) -> None:
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
             raise InvalidArgumentError(f"seed must be an int >= 0, got {seed!r}")
-        options = {**_config_of(source), **config}
-        schema = _common.Schema.of(_common.config_json(options))
-        self.config: dict[str, Any] = options
+        super().__init__(source, **config)
         self.seed = seed
-        self.observation_dim = int(schema.observation_dim)
-        self.action_space = _common.action_space(schema.action_dim)
         self._streams: dict[int, np.random.Generator] = {}
         self._direct = np.random.default_rng(seed)
 
-    @property
-    def action_dim(self) -> int:
-        """Length of one action."""
-        return int(self.action_space.shape[0])
-
-    def predict(
-        self,
-        observation: Any,
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = True,
-    ) -> tuple[np.ndarray, None]:
-        """Random action(s) shaped like :meth:`ScriptedPolicy.predict`'s (one row per
-        observation of a batch), from the policy's own stream."""
-        flat, single = observation_rows(observation, self.observation_dim)
-        actions = self._direct.uniform(-1.0, 1.0, (flat.shape[0], self.action_dim))
-        actions = actions.astype(np.float32)
-        return (actions[0] if single else actions), None
+    def _act(self, flat: np.ndarray) -> np.ndarray:
+        """One random row per observation, from the policy's own stream."""
+        shape = (flat.shape[0], self.action_dim)
+        return self._direct.uniform(-1.0, 1.0, shape).astype(np.float32)
 
     def act_for_episodes(self, running: list[int | None]) -> np.ndarray:
         """One action per environment, each from the stream of the episode it runs
