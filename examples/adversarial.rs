@@ -43,7 +43,7 @@ fn env_scenario(
 ) -> panda_rapier::Result<Tally> {
     let n = 64;
     let config = EnvConfig {
-        task,
+        task: task.into(),
         control_mode: mode,
         arm,
         max_episode_steps: Some(if task == TaskKind::Stack { 150 } else { 70 }),

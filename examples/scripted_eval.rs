@@ -32,7 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(other) => return Err(format!("arm must be dynamic or kinematic, got {other}").into()),
     };
     let config = EnvConfig {
-        task,
+        task: task.into(),
         control_mode: mode,
         max_episode_steps: Some(limit),
         arm,

@@ -26,7 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         _ => ArmFidelity::Dynamic,
     };
     let config = EnvConfig {
-        task,
+        task: task.into(),
         control_mode: mode,
         max_episode_steps: Some(limit),
         arm,

@@ -56,7 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let verbose = args.get(5).is_some_and(|v| v == "v");
     let first_seed: u64 = args.get(6).map_or(Ok(0), |s| s.parse())?;
     let config = EnvConfig {
-        task: TaskKind::Stack,
+        task: TaskKind::Stack.into(),
         control_mode: mode,
         max_episode_steps: Some(limit),
         arm,

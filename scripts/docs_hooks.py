@@ -20,29 +20,16 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: Task name -> (page title, steps of the scripted expert before the picture is taken).
-TASKS = {
-    "pick_and_place": ("PickAndPlace", 40),
-    "reach": ("Reach", 12),
-    "lift": ("Lift", 40),
-    "push": ("Push", 30),
-    "stack": ("Stack", 95),
-}
+#: Steps of the scripted expert before each task's picture is taken (a task missing here gets
+#: a picture at step 40).
+PICTURE_STEPS = {"pick_and_place": 40, "reach": 12, "lift": 40, "push": 30, "stack": 95}
 
-#: Options of the configuration that belong to one task (the rest are shared by all).
-TASK_OPTIONS = {
-    "pick_and_place": (
-        "pick_region",
-        "cube_yaw_range",
-        "goal_region",
-        "goal_air_probability",
-        "goal_air_height",
-    ),
-    "reach": ("reach_goal_region",),
-    "lift": ("pick_region", "cube_yaw_range", "lift_height"),
-    "push": ("pick_region", "cube_yaw_range", "push_goal_region"),
-    "stack": ("pick_region", "cube_yaw_range", "goal_region"),
-}
+
+def _tasks() -> dict[str, tuple[str, int]]:
+    """Task name -> (page title, picture step), for every task of the core's registry."""
+    from panda_rapier.registration import TASK_NAMES
+
+    return {task: (stem, PICTURE_STEPS.get(task, 40)) for task, stem in TASK_NAMES.items()}
 
 
 def _rust_doc(task: str) -> tuple[str, str]:
@@ -91,7 +78,7 @@ def _page(task: str, title: str, figures: dict[str, Any]) -> str:
     import gymnasium as gym
 
     from panda_rapier import _common, _native
-    from panda_rapier.registration import env_config
+    from panda_rapier.registration import TASKS, env_config
 
     ids = [f"panda_rapier/{title}{mode}-v0" for mode in ("", "Dense", "Joints", "JointsDense")]
     config = env_config(f"panda_rapier/{title}-v0")
@@ -186,14 +173,17 @@ def _page(task: str, title: str, figures: dict[str, Any]) -> str:
     )
 
     parts.append("\n## Options of this task\n")
+    section = json.loads(next(t["defaults"] for t in TASKS if t["name"] == task))
+    section.pop("name")
     parts.append(
-        "Set with `gym.make(id, key=value)` (see the configuration reference of "
-        "`PandaEnv`); their defaults:\n\n"
+        "The task's own section of the configuration, "
+        f'`task={{"name": "{task}", ...}}` (fields left out keep their defaults; see the '
+        "configuration reference of `PandaEnv`); its fields and their defaults:\n\n"
     )
     parts.append(
         _table(
-            ["option", "default"],
-            [[f"`{k}`", f"`{json.dumps(defaults[k])}`"] for k in TASK_OPTIONS[task]],
+            ["field", "default"],
+            [[f"`{k}`", f"`{json.dumps(v)}`"] for k, v in section.items()],
         )
     )
 
@@ -226,7 +216,7 @@ def _index(figures: dict[str, Any]) -> str:
     from panda_rapier.registration import TASK_EPISODE_STEPS
 
     rows = []
-    for task, (title, _) in TASKS.items():
+    for task, (title, _) in _tasks().items():
         summary, _ = _rust_doc(task)
         ee = figures["figures"][f"panda_rapier/{title}-v0"]
         joints = figures["figures"][f"panda_rapier/{title}Joints-v0"]
@@ -251,7 +241,7 @@ def on_files(files: Any, config: Any) -> Any:
 
     figures = json.loads((ROOT / "docs" / "expert-figures.json").read_text())
     files.append(File.generated(config, "tasks/index.md", content=_index(figures)))
-    for task, (title, steps) in TASKS.items():
+    for task, (title, steps) in _tasks().items():
         files.append(
             File.generated(config, f"tasks/{task}.md", content=_page(task, title, figures))
         )

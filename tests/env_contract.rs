@@ -1,8 +1,17 @@
 //! Contract: rewards, success logic and `compute_reward`, and typed errors for bad input.
 
 use panda_rapier::task::{
-    ControlMode, EnvConfig, PandaEnv, ResetOptions, RewardContext, RewardType,
+    ControlMode, EnvConfig, PandaEnv, PickAndPlaceConfig, ResetOptions, RewardContext, RewardType,
+    TaskConfig,
 };
+
+/// The pick-and-place task with goals in the air with probability `air`.
+fn air_goals(air: f64) -> TaskConfig {
+    TaskConfig::PickAndPlace(PickAndPlaceConfig {
+        goal_air_probability: air,
+        ..PickAndPlaceConfig::default()
+    })
+}
 use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use panda_rapier::Error;
 use rand::{Rng, SeedableRng};
@@ -15,7 +24,7 @@ fn configs() -> Vec<EnvConfig> {
             out.push(EnvConfig {
                 control_mode,
                 reward_type,
-                goal_air_probability: 0.3,
+                task: air_goals(0.3),
                 ..EnvConfig::default()
             });
         }
@@ -87,16 +96,17 @@ fn compute_reward_reproduces_every_step_reward_and_relabels_goals() {
 #[test]
 fn goals_lie_on_or_above_the_platform_and_cubes_start_in_the_pick_region() {
     let config = EnvConfig {
-        goal_air_probability: 0.5,
+        task: air_goals(0.5),
         ..EnvConfig::default()
     };
+    let section = PickAndPlaceConfig::default();
     let mut env = PandaEnv::new(config.clone()).unwrap();
     let rest = config.sim.platform.top_center[2] + config.sim.cube.size / 2.0;
     let mut in_air = 0;
     for seed in 0..200 {
         env.reset(Some(seed), &ResetOptions::default()).unwrap();
         let goal = panda_rapier::nalgebra::Vector3::from_column_slice(env.goal());
-        let g = &config.goal_region;
+        let g = &section.goal_region;
         assert!(
             goal.x >= g.low[0] && goal.x <= g.high[0] && goal.y >= g.low[1] && goal.y <= g.high[1]
         );
@@ -106,7 +116,7 @@ fn goals_lie_on_or_above_the_platform_and_cubes_start_in_the_pick_region() {
             assert!(goal.z >= rest + 0.05 - 1e-9);
         }
         let cube = &env.observation()[..3];
-        let p = &config.pick_region;
+        let p = &section.cube_region;
         assert!(cube[0] as f64 >= p.low[0] - 1e-6 && cube[0] as f64 <= p.high[0] + 1e-6);
         assert!(cube[1] as f64 >= p.low[1] - 1e-6 && cube[1] as f64 <= p.high[1] + 1e-6);
         assert!((cube[2] as f64 - config.sim.cube.size / 2.0).abs() < 1e-4);

@@ -185,13 +185,13 @@ fn a_renderer_draws_each_scene_as_a_fresh_one_would() {
     // The renderer caches each primitive's triangles: drawing another scene in between (more
     // objects, no platform) must not change what it draws for the first.
     let stack_config = EnvConfig {
-        task: panda_rapier::task::TaskKind::Stack,
+        task: panda_rapier::task::TaskKind::Stack.into(),
         ..EnvConfig::default()
     };
     let mut stack = PandaEnv::new(stack_config).unwrap();
     stack.reset(Some(4), &ResetOptions::default()).unwrap();
     let lift_config = EnvConfig {
-        task: panda_rapier::task::TaskKind::Lift,
+        task: panda_rapier::task::TaskKind::Lift.into(),
         ..EnvConfig::default()
     };
     let mut lift = PandaEnv::new(lift_config).unwrap();

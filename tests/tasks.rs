@@ -15,7 +15,7 @@ use rand_chacha::ChaCha8Rng;
 
 fn config(task: TaskKind, control_mode: ControlMode, reward_type: RewardType) -> EnvConfig {
     EnvConfig {
-        task,
+        task: task.into(),
         control_mode,
         reward_type,
         ..EnvConfig::default()
@@ -54,7 +54,7 @@ fn lane_bits(config: &EnvConfig, num_envs: usize, threads: usize, lane: usize) -
 
 #[test]
 fn every_task_is_deterministic_across_threads_and_batch_sizes() {
-    for task in TaskKind::ALL {
+    for &task in TaskKind::ALL {
         let config = config(task, ControlMode::Ee, RewardType::Dense);
         let alone = lane_bits(&config, 1, 1, 0);
         assert_eq!(alone, lane_bits(&config, 3, 1, 0), "{task:?}: batch of 3");
@@ -64,7 +64,7 @@ fn every_task_is_deterministic_across_threads_and_batch_sizes() {
 
 #[test]
 fn every_task_continues_bit_identically_from_a_snapshot() {
-    for task in TaskKind::ALL {
+    for &task in TaskKind::ALL {
         let mut env = PandaEnv::new(config(task, ControlMode::Joints, RewardType::Dense)).unwrap();
         env.reset(Some(2), &ResetOptions::default()).unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(9);
@@ -93,7 +93,7 @@ fn every_task_continues_bit_identically_from_a_snapshot() {
 
 #[test]
 fn every_task_refuses_bad_input_with_typed_errors() {
-    for task in TaskKind::ALL {
+    for &task in TaskKind::ALL {
         let mut env = PandaEnv::new(config(task, ControlMode::Ee, RewardType::Sparse)).unwrap();
         assert!(
             matches!(env.step(&[0.0; 4]), Err(Error::ResetNeeded { .. })),
@@ -131,7 +131,7 @@ fn every_task_refuses_bad_input_with_typed_errors() {
 
 #[test]
 fn every_task_reproduces_its_step_rewards_from_goals_and_infos() {
-    for task in TaskKind::ALL {
+    for &task in TaskKind::ALL {
         for reward_type in [RewardType::Sparse, RewardType::Dense] {
             let mut env = PandaEnv::new(config(task, ControlMode::Ee, reward_type)).unwrap();
             let layout = env.layout().clone();
@@ -180,14 +180,16 @@ fn every_task_reproduces_its_step_rewards_from_goals_and_infos() {
 
 #[test]
 fn every_task_lays_its_observation_out_as_its_schema_says() {
-    for task in TaskKind::ALL {
+    for &task in TaskKind::ALL {
         let config = config(task, ControlMode::Ee, RewardType::Sparse);
         let mut env = PandaEnv::new(config.clone()).unwrap();
         let layout = ObservationLayout::for_config(&config).unwrap();
         assert_eq!(&layout, env.layout(), "{task:?}");
         assert_eq!(env.task().name(), task.as_str());
-        // `ee` targets keep clear of the platform exactly in the tasks that have it.
+        // `ee` targets keep clear of the platform exactly in the tasks that have it, and the
+        // descriptor says so.
         assert_eq!(env.task().scene(&config).platform, config.has_platform());
+        assert_eq!(config.has_platform(), task.descriptor().has_platform);
         env.reset(Some(1), &ResetOptions::default()).unwrap();
         let obs = env.observation();
         assert_eq!(obs.len(), layout.flat_dim());
@@ -209,11 +211,7 @@ fn every_task_lays_its_observation_out_as_its_schema_says() {
 fn expert_rate(task: TaskKind, mode: ControlMode, arm: ArmFidelity, episodes: usize) -> f64 {
     let mut config = config(task, mode, RewardType::Sparse);
     config.arm = arm;
-    config.max_episode_steps = Some(match task {
-        TaskKind::Reach => 50,
-        TaskKind::Stack => 150,
-        _ => 70,
-    });
+    config.max_episode_steps = Some(task.descriptor().episode_steps);
     let report = evaluate(&config, episodes, 25, Some(2), 0, |_| {}).unwrap();
     if task == TaskKind::PickAndPlace {
         report.placed_rate()

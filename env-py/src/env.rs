@@ -10,9 +10,16 @@ use crate::convert::{
 };
 use crate::errors::{detached, invalid, to_py, ErrorClass};
 
-/// Reads a JSON configuration (the Python side serialises the keyword arguments).
+/// Reads a JSON configuration (the Python side serialises the keyword arguments); keys from
+/// before 0.2 raise a `FutureWarning` each (shown to users by default), saying what to write.
 pub(crate) fn parse_config(py: Python<'_>, config_json: &str) -> PyResult<EnvConfig> {
-    EnvConfig::from_json(config_json).map_err(|e| to_py(py, e))
+    let (config, notes) = EnvConfig::from_json_with_notes(config_json).map_err(|e| to_py(py, e))?;
+    for note in notes {
+        let category = py.get_type::<pyo3::exceptions::PyFutureWarning>();
+        let message = std::ffi::CString::new(note.message).unwrap_or_default();
+        PyErr::warn(py, &category, &message, 1)?;
+    }
+    Ok(config)
 }
 
 /// A saved environment state (`PandaEnv.snapshot`), restorable into any environment with

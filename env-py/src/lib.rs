@@ -24,6 +24,29 @@ fn default_config_json() -> String {
     serde_json::to_string(&panda_rapier_core::EnvConfig::default()).unwrap_or_default()
 }
 
+/// Every registered task's static facts, in the registry's order: dicts of `name`,
+/// `id_stem`, `episode_steps`, `has_platform`, `summary` and `defaults` (the task section's
+/// default fields as JSON). `panda_rapier.registration` builds the Gymnasium ids from it.
+#[pyfunction]
+fn tasks(py: Python<'_>) -> PyResult<Vec<Bound<'_, pyo3::types::PyDict>>> {
+    use panda_rapier_core::task::{TaskConfig, TaskKind};
+    TaskKind::ALL
+        .iter()
+        .map(|&kind| {
+            let d = kind.descriptor();
+            let dict = pyo3::types::PyDict::new(py);
+            dict.set_item("name", d.name)?;
+            dict.set_item("id_stem", d.id_stem)?;
+            dict.set_item("episode_steps", d.episode_steps)?;
+            dict.set_item("has_platform", d.has_platform)?;
+            dict.set_item("summary", d.summary)?;
+            let defaults = serde_json::to_string(&TaskConfig::defaults(kind)).unwrap_or_default();
+            dict.set_item("defaults", defaults)?;
+            Ok(dict)
+        })
+        .collect()
+}
+
 /// The observation and info schema of the environments `config_json` builds: the one
 /// definition (in the core) that Python builds its spaces, dict splitting and reward contexts
 /// from. Keys: `task`, `goal_dim`, `flat_dim`, `action_dim`, `observation` (a list of slots:
@@ -43,7 +66,7 @@ fn schema<'py>(py: Python<'py>, config_json: &str) -> PyResult<Bound<'py, pyo3::
     })?
     .map_err(|e| errors::to_py(py, e))?;
     let dict = PyDict::new(py);
-    dict.set_item("task", config.task.as_str())?;
+    dict.set_item("task", config.task.kind().as_str())?;
     dict.set_item("goal_dim", layout.goal_dim())?;
     dict.set_item("flat_dim", layout.flat_dim())?;
     dict.set_item("action_dim", action_dim)?;
@@ -113,6 +136,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::add_classes(m)?;
     m.add_function(wrap_pyfunction!(default_config_json, m)?)?;
     m.add_function(wrap_pyfunction!(schema, m)?)?;
+    m.add_function(wrap_pyfunction!(tasks, m)?)?;
     m.add_function(wrap_pyfunction!(tutorial_fidelity, m)?)?;
     m.add_function(wrap_pyfunction!(evaluation::evaluate_scripted, m)?)?;
     m.add_class::<env::NativeEnv>()?;

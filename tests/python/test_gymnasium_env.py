@@ -4,6 +4,7 @@ time limit, compute_reward, pickling."""
 from __future__ import annotations
 
 import copy
+import json
 import pickle
 import warnings
 
@@ -14,6 +15,8 @@ from conftest import random_actions
 from gymnasium.utils.env_checker import check_env
 
 import panda_rapier
+from panda_rapier.registration import TASK_NAMES
+from panda_rapier.registration import TASKS as REGISTRY
 
 
 @pytest.mark.parametrize("env_id", panda_rapier.ENV_IDS)
@@ -243,6 +246,67 @@ def test_config_passes_through_gym_make() -> None:
     assert env.metadata["render_fps"] == 50
     env = gym.make("panda_rapier/PickAndPlace-v0", render_mode="rgb_array")
     assert env.render_mode == "rgb_array"
+
+
+def test_a_task_is_configured_by_its_own_section() -> None:
+    region = {"low": [0.45, 0.1], "high": [0.5, 0.15]}
+    env = gym.make("panda_rapier/Push-v0", task={"name": "push", "goal_region": region})
+    config = env.unwrapped.config["task"]
+    assert config["name"] == "push" and config["goal_region"] == region
+    defaults = json.loads(next(t["defaults"] for t in REGISTRY if t["name"] == "push"))
+    assert config["cube_region"] == defaults["cube_region"]
+    for seed in range(20):
+        obs, _ = env.reset(seed=seed)
+        x, y, _ = obs["desired_goal"]
+        assert 0.45 - 1e-6 <= x <= 0.5 + 1e-6 and 0.1 - 1e-6 <= y <= 0.15 + 1e-6
+    # The name alone is the task with its defaults, the same environment.
+    short = gym.make("panda_rapier/Reach-v0")
+    long = gym.make("panda_rapier/Reach-v0", task={"name": "reach"})
+    assert short.unwrapped.config == long.unwrapped.config
+
+
+def test_the_registry_lists_every_task_once_with_its_ids() -> None:
+    names = [t["name"] for t in REGISTRY]
+    assert names == list(TASK_NAMES) and len(set(names)) == len(names)
+    for task in REGISTRY:
+        spec = gym.spec(f"panda_rapier/{task['id_stem']}-v0")
+        assert spec.kwargs["task"] == task["name"]
+        assert spec.max_episode_steps == task["episode_steps"]
+        env = gym.make(spec.id)
+        assert env.unwrapped.config["task"] == json.loads(task["defaults"])
+        env.close()
+
+
+@pytest.mark.parametrize(
+    ("env_id", "old", "new"),
+    [
+        (
+            "panda_rapier/Reach-v0",
+            {"reach_goal_region": [[0.4, -0.1, 0.2], [0.5, 0.1, 0.3]]},
+            {"goal_region": [[0.4, -0.1, 0.2], [0.5, 0.1, 0.3]]},
+        ),
+        ("panda_rapier/Lift-v0", {"lift_height": [0.1, 0.15]}, {"goal_height": [0.1, 0.15]}),
+        (
+            "panda_rapier/PickAndPlace-v0",
+            {"goal_air_probability": 0.5, "pick_region": {"low": [0.45, -0.2], "high": [0.5, 0]}},
+            {"goal_air_probability": 0.5, "cube_region": {"low": [0.45, -0.2], "high": [0.5, 0]}},
+        ),
+    ],
+)
+def test_options_from_before_0_2_warn_and_mean_the_same(
+    env_id: str, old: dict[str, object], new: dict[str, object]
+) -> None:
+    task = gym.spec(env_id).kwargs["task"]
+    with pytest.warns(FutureWarning, match="0.3.0") as record:
+        before = gym.make(env_id, **old)
+    assert all(key in " ".join(str(w.message) for w in record) for key in old)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        after = gym.make(env_id, task={"name": task, **new})
+    assert before.unwrapped.config == after.unwrapped.config
+    first, second = before.reset(seed=5)[0], after.reset(seed=5)[0]
+    for key in first:
+        np.testing.assert_array_equal(first[key], second[key])
 
 
 @pytest.mark.parametrize("env_id", panda_rapier.ENV_IDS)

@@ -7,6 +7,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{invalid, non_negative, positive, ArmFidelity, SimConfig};
 use crate::error::Result;
+use crate::task::registry::{migrate_legacy_keys, Deprecation, TaskConfig, TaskKind};
+#[cfg(doc)]
+use crate::task::registry::{TaskDescriptor, TaskSpec};
 use crate::task::reward::RewardWeights;
 
 /// How actions drive the robot.
@@ -27,52 +30,6 @@ impl ControlMode {
         match self {
             ControlMode::Ee => "ee",
             ControlMode::Joints => "joints",
-        }
-    }
-}
-
-/// Which task an environment runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum TaskKind {
-    /// Pick the cube up from the floor and put it on the goal on the platform
-    /// ([`crate::task::PickAndPlace`]).
-    #[default]
-    PickAndPlace,
-    /// Move the tool centre point to a goal in the air ([`crate::task::Reach`]).
-    Reach,
-    /// Grasp the cube and lift it to a goal above where it started ([`crate::task::Lift`]).
-    Lift,
-    /// Put one cube on the platform and the other on top of it ([`crate::task::Stack`]).
-    Stack,
-    /// Push the cube along the floor to a goal on the floor, the fingers closed
-    /// ([`crate::task::Push`]).
-    Push,
-}
-
-impl TaskKind {
-    /// Every task, in order.
-    pub const ALL: [TaskKind; 5] = [
-        TaskKind::PickAndPlace,
-        TaskKind::Reach,
-        TaskKind::Lift,
-        TaskKind::Stack,
-        TaskKind::Push,
-    ];
-
-    /// The task called `name` (as [`TaskKind::as_str`] spells it).
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|t| t.as_str() == name)
-    }
-
-    /// The name used in configs and on the command line.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            TaskKind::PickAndPlace => "pick_and_place",
-            TaskKind::Reach => "reach",
-            TaskKind::Lift => "lift",
-            TaskKind::Stack => "stack",
-            TaskKind::Push => "push",
         }
     }
 }
@@ -117,7 +74,8 @@ impl Region {
         ]
     }
 
-    fn validate(&self, field: &str) -> Result<()> {
+    /// Checks that the region is finite and not inverted; errors name `field`.
+    pub fn validate(&self, field: &str) -> Result<()> {
         for i in 0..2 {
             if !(self.low[i].is_finite() && self.high[i].is_finite()) {
                 return Err(invalid(field, format!("must be finite, got {self:?}")));
@@ -192,7 +150,20 @@ impl Default for TaskThresholds {
 /// ```
 /// let defaults = r#"
 /// {
-///   "task": "pick_and_place",
+///   "task": {
+///     "name": "pick_and_place",
+///     "cube_region": {
+///       "low": [0.4, -0.2],
+///       "high": [0.6, 0.0]
+///     },
+///     "cube_yaw_range": [-0.25, 0.25],
+///     "goal_region": {
+///       "low": [0.42, 0.22],
+///       "high": [0.58, 0.38]
+///     },
+///     "goal_air_probability": 0.0,
+///     "goal_air_height": [0.05, 0.2]
+///   },
 ///   "arm": "dynamic",
 ///   "control_mode": "ee",
 ///   "reward_type": "sparse",
@@ -208,23 +179,6 @@ impl Default for TaskThresholds {
 ///   "control_frequency": 25.0,
 ///   "success_threshold": 0.05,
 ///   "terminate_on_success": false,
-///   "pick_region": {
-///     "low": [0.4, -0.2],
-///     "high": [0.6, 0.0]
-///   },
-///   "cube_yaw_range": [-0.25, 0.25],
-///   "goal_region": {
-///     "low": [0.42, 0.22],
-///     "high": [0.58, 0.38]
-///   },
-///   "goal_air_probability": 0.0,
-///   "goal_air_height": [0.05, 0.2],
-///   "reach_goal_region": [[0.35, -0.25, 0.1], [0.65, 0.25, 0.4]],
-///   "lift_height": [0.05, 0.25],
-///   "push_goal_region": {
-///     "low": [0.4, 0.05],
-///     "high": [0.6, 0.25]
-///   },
 ///   "ee_step": 0.05,
 ///   "joint_step": 0.05,
 ///   "ee_workspace": [[0.15, -0.6, 0.0], [0.85, 0.6, 0.6]],
@@ -296,8 +250,9 @@ impl Default for TaskThresholds {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct EnvConfig {
-    /// The task.
-    pub task: TaskKind,
+    /// The task and its own section: regions, ranges and objects (each task's module lists
+    /// its fields; [`TaskConfig`]). In JSON `"reach"` or `{"name": "reach", ...}`.
+    pub task: TaskConfig,
     /// How actions drive the robot.
     pub control_mode: ControlMode,
     /// Sparse or dense reward.
@@ -318,26 +273,6 @@ pub struct EnvConfig {
     pub success_threshold: f64,
     /// End the episode (`terminated`) on the first success instead of running to the time limit.
     pub terminate_on_success: bool,
-    /// Where the cube's centre starts (on the floor).
-    pub pick_region: Region,
-    /// Range of the cube's start yaw (rad).
-    pub cube_yaw_range: Range,
-    /// Where goals are drawn, on the platform's top.
-    pub goal_region: Region,
-    /// Probability that the goal is in the air above the platform instead of on it.
-    pub goal_air_probability: f64,
-    /// Height range (m) of an air goal above the cube's resting height on the platform.
-    pub goal_air_height: Range,
-    /// `reach`: the box (m, world frame) goals are drawn in, as
-    /// `[[xlow, ylow, zlow], [xhigh, yhigh, zhigh]]`.
-    pub reach_goal_region: [[f64; 3]; 2],
-    /// `lift`: height range (m) of the goal above the cube's resting centre, straight above
-    /// where it starts.
-    pub lift_height: Range,
-    /// `push`: where goals are drawn, on the floor. The default lies beside `pick_region`
-    /// (towards +y) and 5 cm clear of it, so the cube starts at least `success_threshold` from
-    /// the goal and is pushed 0.05 to 0.49 m (0.26 m on average).
-    pub push_goal_region: Region,
     /// TCP displacement (m) per step at action 1.0 (`ee` control).
     pub ee_step: f64,
     /// Joint target displacement (rad) per step at action 1.0 (`joints` control).
@@ -372,7 +307,7 @@ pub struct EnvConfig {
 impl Default for EnvConfig {
     fn default() -> Self {
         Self {
-            task: TaskKind::PickAndPlace,
+            task: TaskConfig::default(),
             control_mode: ControlMode::Ee,
             reward_type: RewardType::Sparse,
             reward_weights: RewardWeights::default(),
@@ -380,23 +315,6 @@ impl Default for EnvConfig {
             control_frequency: 25.0,
             success_threshold: 0.05,
             terminate_on_success: false,
-            pick_region: Region {
-                low: [0.4, -0.2],
-                high: [0.6, 0.0],
-            },
-            cube_yaw_range: [-0.25, 0.25],
-            goal_region: Region {
-                low: [0.42, 0.22],
-                high: [0.58, 0.38],
-            },
-            goal_air_probability: 0.0,
-            goal_air_height: [0.05, 0.2],
-            reach_goal_region: [[0.35, -0.25, 0.1], [0.65, 0.25, 0.4]],
-            lift_height: [0.05, 0.25],
-            push_goal_region: Region {
-                low: [0.4, 0.05],
-                high: [0.6, 0.25],
-            },
             ee_step: 0.05,
             joint_step: 0.05,
             ee_workspace: [[0.15, -0.6, 0.0], [0.85, 0.6, 0.6]],
@@ -410,7 +328,8 @@ impl Default for EnvConfig {
     }
 }
 
-fn range(field: &str, r: Range, min: f64) -> Result<()> {
+/// Checks that `r` is finite, not inverted and starts at or above `min`; errors name `field`.
+pub fn validate_range(field: &str, r: Range, min: f64) -> Result<()> {
     if !(r[0].is_finite() && r[1].is_finite()) {
         return Err(invalid(field, format!("must be finite, got {r:?}")));
     }
@@ -424,12 +343,32 @@ fn range(field: &str, r: Range, min: f64) -> Result<()> {
 }
 
 impl EnvConfig {
-    /// Parses a JSON document (unknown keys are errors) and validates it.
+    /// Parses a JSON document (unknown keys are errors) and validates it. Keys from before
+    /// 0.2 are read as [`EnvConfig::from_json_with_notes`] says, silently.
     pub fn from_json(text: &str) -> Result<Self> {
-        let config: Self =
+        Self::from_json_with_notes(text).map(|(config, _)| config)
+    }
+
+    /// [`EnvConfig::from_json`], with a note for every top-level key from before 0.2
+    /// (`pick_region`, `reach_goal_region`, ...; see [`TaskSpec::LEGACY_KEYS`]): it is moved
+    /// into the task section, or, if it belongs to another task and holds its old default,
+    /// dropped; another task's key with any other value is an error.
+    pub fn from_json_with_notes(text: &str) -> Result<(Self, Vec<Deprecation>)> {
+        let mut document: serde_json::Value =
             serde_json::from_str(text).map_err(|e| invalid("<json>", e.to_string()))?;
+        let notes = migrate_legacy_keys(&mut document)?;
+        let config: Self =
+            serde_json::from_value(document).map_err(|e| invalid("<json>", e.to_string()))?;
         config.validate()?;
-        Ok(config)
+        Ok((config, notes))
+    }
+
+    /// The default configuration of `task`.
+    pub fn for_task(task: TaskKind) -> Self {
+        Self {
+            task: task.into(),
+            ..Self::default()
+        }
     }
 
     /// Physics steps per action, or an error naming the offending fields.
@@ -469,10 +408,9 @@ impl EnvConfig {
         Ok(sim)
     }
 
-    /// Whether the task's scene has the platform ([`crate::task::Task::scene`]): only
-    /// `pick_and_place`'s does.
+    /// Whether the task's scene has the platform ([`TaskDescriptor::has_platform`]).
     pub fn has_platform(&self) -> bool {
-        matches!(self.task, TaskKind::PickAndPlace | TaskKind::Stack)
+        self.task.kind().descriptor().has_platform
     }
 
     /// The height (m) of the surface under the point (x, y) as `ee` targets see it: the
@@ -490,6 +428,56 @@ impl EnvConfig {
         }
     }
 
+    /// For the tasks with the platform: cubes drawn in `cube_region` start clear of it (any
+    /// yaw, the largest size drawn) and goals in `goal_region` lie on its top. Errors name
+    /// `task.cube_region` or `task.goal_region`.
+    pub fn validate_platform_regions(
+        &self,
+        cube_region: &Region,
+        goal_region: &Region,
+    ) -> Result<()> {
+        let pc = &self.sim.platform;
+        let half = [pc.size[0] / 2.0, pc.size[1] / 2.0];
+        let platform_low = [pc.top_center[0] - half[0], pc.top_center[1] - half[1]];
+        let platform_high = [pc.top_center[0] + half[0], pc.top_center[1] + half[1]];
+        let largest_cube = self
+            .randomization
+            .cube_size
+            .map_or(self.sim.cube.size, |s| s[1]);
+        // Half the diagonal: a yawed cube reaches that far from its centre.
+        let reach = largest_cube * std::f64::consts::FRAC_1_SQRT_2;
+        let pick = cube_region;
+        let overlaps = (0..2).all(|i| {
+            pick.low[i] - reach < platform_high[i] && pick.high[i] + reach > platform_low[i]
+        });
+        if overlaps {
+            return Err(invalid(
+                "task.cube_region",
+                format!(
+                    "a cube drawn in {pick:?} could overlap the platform spanning {platform_low:?}..{platform_high:?}"
+                ),
+            ));
+        }
+        let goal = goal_region;
+        let inside =
+            (0..2).all(|i| goal.low[i] >= platform_low[i] && goal.high[i] <= platform_high[i]);
+        if !inside {
+            return Err(invalid(
+                "task.goal_region",
+                format!(
+                    "must lie on the platform's top {platform_low:?}..{platform_high:?}, got {goal:?}"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks a task's cube start: `task.cube_region` and `task.cube_yaw_range`.
+    pub fn validate_cube_start(cube_region: &Region, cube_yaw_range: Range) -> Result<()> {
+        cube_region.validate("task.cube_region")?;
+        validate_range("task.cube_yaw_range", cube_yaw_range, f64::NEG_INFINITY)
+    }
+
     /// Checks every value; the first problem is returned with its field name.
     pub fn validate(&self) -> Result<()> {
         self.sim_config()?.validate()?;
@@ -502,23 +490,6 @@ impl EnvConfig {
         positive("joint_step", self.joint_step)?;
         non_negative("ee_surface_clearance", self.ee_surface_clearance)?;
         non_negative("ee_surface_margin", self.ee_surface_margin)?;
-        self.pick_region.validate("pick_region")?;
-        self.goal_region.validate("goal_region")?;
-        self.push_goal_region.validate("push_goal_region")?;
-        range("cube_yaw_range", self.cube_yaw_range, f64::NEG_INFINITY)?;
-        range("goal_air_height", self.goal_air_height, 0.0)?;
-        range("lift_height", self.lift_height, 0.0)?;
-        let [low, high] = self.reach_goal_region;
-        for i in 0..3 {
-            range("reach_goal_region", [low[i], high[i]], f64::NEG_INFINITY)?;
-        }
-        let p = self.goal_air_probability;
-        if !(0.0..=1.0).contains(&p) {
-            return Err(invalid(
-                "goal_air_probability",
-                format!("must be in [0, 1], got {p}"),
-            ));
-        }
         let [low, high] = self.ee_workspace;
         for i in 0..3 {
             if !(low[i].is_finite() && high[i].is_finite()) || low[i] > high[i] {
@@ -533,7 +504,7 @@ impl EnvConfig {
         }
         let r = &self.randomization;
         if let Some(s) = r.cube_size {
-            range("randomization.cube_size", s, 0.0)?;
+            validate_range("randomization.cube_size", s, 0.0)?;
             if s[0] <= 0.0 || s[1] > 0.08 {
                 return Err(invalid(
                     "randomization.cube_size",
@@ -542,7 +513,7 @@ impl EnvConfig {
             }
         }
         if let Some(m) = r.cube_mass {
-            range("randomization.cube_mass", m, 0.0)?;
+            validate_range("randomization.cube_mass", m, 0.0)?;
             if m[0] <= 0.0 {
                 return Err(invalid(
                     "randomization.cube_mass",
@@ -551,7 +522,7 @@ impl EnvConfig {
             }
         }
         if let Some(f) = r.cube_friction {
-            range("randomization.cube_friction", f, 0.0)?;
+            validate_range("randomization.cube_friction", f, 0.0)?;
         }
         non_negative("randomization.joint_noise", r.joint_noise)?;
         let t = &self.thresholds;
@@ -563,38 +534,7 @@ impl EnvConfig {
             "thresholds.unstable_angular_speed",
             t.unstable_angular_speed,
         )?;
-
-        // The cube must start clear of the platform and goals must lie on it.
-        let pc = &self.sim.platform;
-        let half = [pc.size[0] / 2.0, pc.size[1] / 2.0];
-        let platform_low = [pc.top_center[0] - half[0], pc.top_center[1] - half[1]];
-        let platform_high = [pc.top_center[0] + half[0], pc.top_center[1] + half[1]];
-        let largest_cube = r.cube_size.map_or(self.sim.cube.size, |s| s[1]);
-        // Half the diagonal: a yawed cube reaches that far from its centre.
-        let reach = largest_cube * std::f64::consts::FRAC_1_SQRT_2;
-        let pick = &self.pick_region;
-        let overlaps = (0..2).all(|i| {
-            pick.low[i] - reach < platform_high[i] && pick.high[i] + reach > platform_low[i]
-        });
-        if overlaps {
-            return Err(invalid(
-                "pick_region",
-                format!(
-                    "a cube drawn in {pick:?} could overlap the platform spanning {platform_low:?}..{platform_high:?}"
-                ),
-            ));
-        }
-        let goal = &self.goal_region;
-        let inside =
-            (0..2).all(|i| goal.low[i] >= platform_low[i] && goal.high[i] <= platform_high[i]);
-        if !inside {
-            return Err(invalid(
-                "goal_region",
-                format!(
-                    "must lie on the platform's top {platform_low:?}..{platform_high:?}, got {goal:?}"
-                ),
-            ));
-        }
+        self.task.validate(self)?;
         Ok(())
     }
 }
@@ -603,6 +543,14 @@ impl EnvConfig {
 mod tests {
     use super::*;
     use crate::error::Error;
+    use crate::task::pick_and_place::PickAndPlaceConfig;
+
+    fn pnp(config: &mut EnvConfig) -> &mut PickAndPlaceConfig {
+        match &mut config.task {
+            TaskConfig::PickAndPlace(section) => section,
+            other => panic!("not pick_and_place: {other:?}"),
+        }
+    }
 
     #[test]
     fn defaults_are_valid_and_give_four_substeps() {
@@ -642,16 +590,25 @@ mod tests {
                 "success_threshold",
                 Box::new(|c| c.success_threshold = -0.1),
             ),
-            ("pick_region", Box::new(|c| c.pick_region.low[0] = 0.9)),
-            ("pick_region", Box::new(|c| c.pick_region.high[1] = 0.3)),
-            ("goal_region", Box::new(|c| c.goal_region.high[0] = 2.0)),
             (
-                "goal_air_probability",
-                Box::new(|c| c.goal_air_probability = 1.5),
+                "task.cube_region",
+                Box::new(|c| pnp(c).cube_region.low[0] = 0.9),
             ),
             (
-                "goal_air_height",
-                Box::new(|c| c.goal_air_height = [0.2, 0.1]),
+                "task.cube_region",
+                Box::new(|c| pnp(c).cube_region.high[1] = 0.3),
+            ),
+            (
+                "task.goal_region",
+                Box::new(|c| pnp(c).goal_region.high[0] = 2.0),
+            ),
+            (
+                "task.goal_air_probability",
+                Box::new(|c| pnp(c).goal_air_probability = 1.5),
+            ),
+            (
+                "task.goal_air_height",
+                Box::new(|c| pnp(c).goal_air_height = [0.2, 0.1]),
             ),
             (
                 "randomization.cube_mass",
@@ -693,5 +650,85 @@ mod tests {
         assert!(err.to_string().contains("episode_length"), "{err}");
         let err = EnvConfig::from_json(r#"{"control_mode": "torque"}"#).unwrap_err();
         assert!(err.to_string().contains("torque"), "{err}");
+    }
+
+    #[test]
+    fn the_task_section_takes_a_name_or_fields() {
+        let short = EnvConfig::from_json(r#"{"task": "reach"}"#).unwrap();
+        assert_eq!(short.task.kind(), TaskKind::Reach);
+        let long = EnvConfig::from_json(
+            r#"{"task": {"name": "reach", "goal_region": [[0.4, -0.1, 0.1], [0.6, 0.1, 0.3]]}}"#,
+        )
+        .unwrap();
+        assert_ne!(long.task, short.task);
+        let text = serde_json::to_string(&long).unwrap();
+        assert_eq!(EnvConfig::from_json(&text).unwrap(), long);
+        for bad in [
+            r#"{"task": "slide"}"#,
+            r#"{"task": {"goal_region": [[0, 0, 0], [1, 1, 1]]}}"#,
+            r#"{"task": {"name": "reach", "goal_height": [0.1, 0.2]}}"#,
+            r#"{"task": 3}"#,
+        ] {
+            let err = EnvConfig::from_json(bad).unwrap_err();
+            assert!(matches!(err, Error::InvalidConfig { .. }), "{bad}: {err}");
+        }
+        let err = EnvConfig::from_json(r#"{"task": {"name": "reach", "goal_height": 1}}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("goal_height"), "{err}");
+    }
+
+    #[test]
+    fn keys_from_before_0_2_move_into_the_task_section_with_a_note() {
+        let (config, notes) = EnvConfig::from_json_with_notes(
+            r#"{"task": "reach", "reach_goal_region": [[0.4, -0.1, 0.1], [0.6, 0.1, 0.3]]}"#,
+        )
+        .unwrap();
+        let expected = EnvConfig::from_json(
+            r#"{"task": {"name": "reach", "goal_region": [[0.4, -0.1, 0.1], [0.6, 0.1, 0.3]]}}"#,
+        )
+        .unwrap();
+        assert_eq!(config, expected);
+        assert_eq!(notes.len(), 1);
+        assert_eq!(notes[0].key, "reach_goal_region");
+        assert!(notes[0].message.contains("0.3.0"), "{}", notes[0].message);
+        // Without a task: the default one's keys.
+        let (config, notes) =
+            EnvConfig::from_json_with_notes(r#"{"goal_air_probability": 0.5}"#).unwrap();
+        let TaskConfig::PickAndPlace(section) = &config.task else {
+            panic!("{config:?}")
+        };
+        assert_eq!(section.goal_air_probability, 0.5);
+        assert_eq!(notes.len(), 1);
+        // Another task's key at its old default: dropped with a note; otherwise an error.
+        let (config, notes) =
+            EnvConfig::from_json_with_notes(r#"{"task": "push", "lift_height": [0.05, 0.25]}"#)
+                .unwrap();
+        assert_eq!(config, EnvConfig::for_task(TaskKind::Push));
+        assert!(notes[0].message.contains("ignored"), "{}", notes[0].message);
+        let err =
+            EnvConfig::from_json(r#"{"task": "push", "lift_height": [0.1, 0.2]}"#).unwrap_err();
+        assert!(err.to_string().contains("lift_height"), "{err}");
+        // Both spellings at once.
+        let err = EnvConfig::from_json(
+            r#"{"task": {"name": "lift", "goal_height": [0.1, 0.2]}, "lift_height": [0.1, 0.2]}"#,
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("keep one"), "{err}");
+        // The old default document (every key of 0.1.0) still reads, for every task.
+        for task in TaskKind::ALL {
+            let old = format!(
+                r#"{{"task": "{task}", "pick_region": {{"low": [0.4, -0.2], "high": [0.6, 0.0]}},
+                "cube_yaw_range": [-0.25, 0.25],
+                "goal_region": {{"low": [0.42, 0.22], "high": [0.58, 0.38]}},
+                "goal_air_probability": 0.0, "goal_air_height": [0.05, 0.2],
+                "reach_goal_region": [[0.35, -0.25, 0.1], [0.65, 0.25, 0.4]],
+                "lift_height": [0.05, 0.25],
+                "push_goal_region": {{"low": [0.4, 0.05], "high": [0.6, 0.25]}}}}"#
+            );
+            let (config, notes) = EnvConfig::from_json_with_notes(&old).unwrap();
+            assert_eq!(config, EnvConfig::for_task(*task), "{task}");
+            assert_eq!(notes.len(), 8, "{task}");
+        }
     }
 }

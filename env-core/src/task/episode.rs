@@ -237,14 +237,24 @@ impl EpisodeStart {
     }
 }
 
+/// Where the cube tasks' cubes start by default: on the floor in front of the robot, clear of
+/// the platform.
+pub(crate) const CUBE_REGION: crate::task::config::Region = crate::task::config::Region {
+    low: [0.4, -0.2],
+    high: [0.6, 0.0],
+};
+
+/// The cube tasks' default range of start yaws (rad).
+pub(crate) const CUBE_YAW_RANGE: crate::task::config::Range = [-0.25, 0.25];
+
 /// A cube's start orientation: the yaw `options.cube_yaw`, else a uniform draw `u` across
-/// `cube_yaw_range`.
+/// `yaw_range`.
 pub(crate) fn cube_orientation(
-    config: &crate::task::EnvConfig,
+    yaw_range: crate::task::config::Range,
     u: f64,
     options: &ResetOptions,
 ) -> UnitQuaternion<f64> {
-    let [low, high] = config.cube_yaw_range;
+    let [low, high] = yaw_range;
     let yaw = options.cube_yaw.unwrap_or(low + (high - low) * u);
     UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw)
 }

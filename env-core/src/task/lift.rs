@@ -6,9 +6,9 @@
 //! then the robot's slots and the cube's (47 entries for the Panda).
 //!
 //! # Starting state
-//! The cube on the floor at a uniform position in `pick_region` with a uniform yaw in
-//! `cube_yaw_range`; the goal straight above it, `lift_height` above its resting centre. The
-//! scene has no platform.
+//! The cube on the floor at a uniform position in `task.cube_region` with a uniform yaw in
+//! `task.cube_yaw_range`; the goal straight above it, `task.goal_height` above its resting
+//! centre (see [`LiftConfig`]). The scene has no platform.
 //!
 //! # Rewards
 //! Pick-and-place's ([`crate::task::reward`]): `sparse` -1 until the cube is within
@@ -18,35 +18,83 @@
 use nalgebra::Vector3;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
 
-use super::episode::{cube_orientation, CubeProperties};
+use super::config::{validate_range, Range, Region};
+use super::episode::{cube_orientation, CubeProperties, CUBE_REGION, CUBE_YAW_RANGE};
+use super::registry::{TaskDescriptor, TaskSpec};
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
 use crate::physics::{BodyState, Scene, Simulation};
 use crate::task::pick_and_place::PickAndPlace;
 use crate::task::reward::RewardContext;
 
+/// The `lift` section of the configuration (`{"task": {"name": "lift", ...}}`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LiftConfig {
+    /// Where the cube's centre starts, on the floor (`pick_region` before 0.2).
+    pub cube_region: Region,
+    /// Range of the cube's start yaw (rad).
+    pub cube_yaw_range: Range,
+    /// Height range (m) of the goal above the cube's resting centre, straight above where it
+    /// starts (`lift_height` before 0.2).
+    pub goal_height: Range,
+}
+
+impl Default for LiftConfig {
+    fn default() -> Self {
+        Self {
+            cube_region: CUBE_REGION,
+            cube_yaw_range: CUBE_YAW_RANGE,
+            goal_height: [0.05, 0.25],
+        }
+    }
+}
+
+impl TaskSpec for Lift {
+    type Config = LiftConfig;
+
+    const DESCRIPTOR: TaskDescriptor = TaskDescriptor {
+        name: "lift",
+        id_stem: "Lift",
+        episode_steps: 70,
+        has_platform: false,
+        summary: "grasp the cube and lift it to a goal above its start",
+    };
+
+    const LEGACY_KEYS: &'static [(&'static str, &'static str)] = &[
+        ("pick_region", "cube_region"),
+        ("cube_yaw_range", "cube_yaw_range"),
+        ("lift_height", "goal_height"),
+    ];
+
+    fn validate(section: &LiftConfig, _config: &EnvConfig) -> Result<()> {
+        EnvConfig::validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
+        validate_range("task.goal_height", section.goal_height, 0.0)
+    }
+
+    fn build(section: &LiftConfig, config: &EnvConfig) -> Self {
+        Self {
+            section: section.clone(),
+            config: config.clone(),
+            cube_task: PickAndPlace::build(&Default::default(), config),
+        }
+    }
+}
+
 /// Lift the cube to a goal above its start (see the module documentation).
 #[derive(Debug, Clone)]
 pub struct Lift {
+    section: LiftConfig,
     config: EnvConfig,
     /// Observation, judgement and reward are pick-and-place's.
     cube_task: PickAndPlace,
 }
 
-impl Lift {
-    /// The task as `config` sets it up.
-    pub fn new(config: &EnvConfig) -> Self {
-        Self {
-            config: config.clone(),
-            cube_task: PickAndPlace::new(config),
-        }
-    }
-}
-
 impl Task for Lift {
     fn name(&self) -> &'static str {
-        "lift"
+        Self::DESCRIPTOR.name
     }
 
     fn scene(&self, config: &EnvConfig) -> Scene {
@@ -80,7 +128,7 @@ impl Task for Lift {
         let config = &self.config;
         let mut draw = || rng.random::<f64>();
         // Always the same draws in the same order, whatever the overrides.
-        let cube_xy = config.pick_region.lerp([draw(), draw()]);
+        let cube_xy = self.section.cube_region.lerp([draw(), draw()]);
         let yaw_u = draw();
         let height_u = draw();
         let size_u = draw();
@@ -91,9 +139,9 @@ impl Task for Lift {
             self.cube_task.cube(),
             cube_xy,
             options.cube_position,
-            cube_orientation(config, yaw_u, options),
+            cube_orientation(self.section.cube_yaw_range, yaw_u, options),
         );
-        let [low, high] = config.lift_height;
+        let [low, high] = self.section.goal_height;
         let lifted = properties.size / 2.0 + low + (high - low) * height_u;
         let goal = options.goal.map_or(
             Vector3::new(cube.position.x, cube.position.y, lifted),

@@ -7,8 +7,8 @@
 //! observation entries it adds after the robot's, and its reward and success predicates. The
 //! robot, its action controller, episode bookkeeping, blow-up detection and snapshots are the
 //! environment's, the same for every task. The tasks: [`PickAndPlace`], [`Reach`], [`Lift`],
-//! [`Stack`], [`Push`]; adding one is a new file here implementing [`Task`] and an entry in
-//! [`TaskKind`].
+//! [`Stack`], [`Push`]; adding one is a new file here implementing [`Task`] and
+//! [`TaskSpec`] and one line in the [`registry`].
 
 pub mod config;
 pub mod env;
@@ -18,26 +18,28 @@ pub mod observation;
 pub mod pick_and_place;
 pub mod push;
 pub mod reach;
+pub mod registry;
 pub mod reward;
 pub mod stack;
 
 use rand_chacha::ChaCha8Rng;
 
-pub use config::{
-    ControlMode, EnvConfig, Randomization, Region, RewardType, TaskKind, TaskThresholds,
-};
+pub use config::{ControlMode, EnvConfig, Randomization, Region, RewardType, TaskThresholds};
 pub use env::{env_rng, EnvSnapshot, PandaEnv};
 pub use episode::{EpisodeStart, ObjectStart, ResetOptions, StepInfo, Transition};
-pub use lift::Lift;
+pub use lift::{Lift, LiftConfig};
 pub use observation::{
     InfoField, InfoType, InfoValue, ObservationLayout, Slot, SlotSpec, INFO_FIELDS,
     REWARD_CONTEXT_KEYS,
 };
-pub use pick_and_place::PickAndPlace;
-pub use push::Push;
-pub use reach::Reach;
+pub use pick_and_place::{PickAndPlace, PickAndPlaceConfig};
+pub use push::{Push, PushConfig};
+pub use reach::{Reach, ReachConfig};
+pub use registry::{
+    make_task, Deprecation, TaskConfig, TaskDescriptor, TaskKind, TaskSpec, LEGACY_KEYS_REMOVED_IN,
+};
 pub use reward::{RewardContext, RewardFunction, RewardTerms, RewardWeights};
-pub use stack::Stack;
+pub use stack::{Stack, StackConfig};
 
 use crate::error::Result;
 use crate::physics::{BodyState, Scene, Simulation};
@@ -131,15 +133,4 @@ pub trait Task: Send + Sync + std::fmt::Debug {
         contexts: &[RewardContext],
         out: &mut [f32],
     ) -> Result<()>;
-}
-
-/// Builds the task `config` names.
-pub fn make_task(config: &EnvConfig) -> Box<dyn Task> {
-    match config.task {
-        TaskKind::PickAndPlace => Box::new(PickAndPlace::new(config)),
-        TaskKind::Reach => Box::new(Reach::new(config)),
-        TaskKind::Lift => Box::new(Lift::new(config)),
-        TaskKind::Stack => Box::new(Stack::new(config)),
-        TaskKind::Push => Box::new(Push::new(config)),
-    }
 }

@@ -15,8 +15,8 @@
 //! | 30 | `observation` 24 | `gripper_width` | 1 | opening between the finger pads (m) |
 //!
 //! # Starting state
-//! The robot in its start pose; the goal uniform in the box `reach_goal_region`. The scene is
-//! the floor alone (no platform, no objects).
+//! The robot in its start pose; the goal uniform in the box `task.goal_region` (see
+//! [`ReachConfig`]). The scene is the floor alone (no platform, no objects).
 //!
 //! # Rewards
 //! `sparse`: -1 until the tool centre point is within `success_threshold` of the goal, then 0.
@@ -27,7 +27,10 @@
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
 
+use super::config::validate_range;
+use super::registry::{TaskDescriptor, TaskSpec};
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
 use crate::physics::{BodyState, Scene, Simulation};
@@ -36,20 +39,62 @@ use crate::task::reward::{
     closeness, compute_batch_with, RewardContext, RewardFunction, RewardTerms, GOAL_DIM,
 };
 
+/// The `reach` section of the configuration (`{"task": {"name": "reach", ...}}`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReachConfig {
+    /// The box (m, world frame) goals are drawn in, as
+    /// `[[xlow, ylow, zlow], [xhigh, yhigh, zhigh]]` (`reach_goal_region` before 0.2).
+    pub goal_region: [[f64; 3]; 2],
+}
+
+impl Default for ReachConfig {
+    fn default() -> Self {
+        Self {
+            goal_region: [[0.35, -0.25, 0.1], [0.65, 0.25, 0.4]],
+        }
+    }
+}
+
+impl TaskSpec for Reach {
+    type Config = ReachConfig;
+
+    const DESCRIPTOR: TaskDescriptor = TaskDescriptor {
+        name: "reach",
+        id_stem: "Reach",
+        // panda-gym's 50 steps; the scripted expert needs at most 26.
+        episode_steps: 50,
+        has_platform: false,
+        summary: "move the tool centre point to a goal in the air",
+    };
+
+    const LEGACY_KEYS: &'static [(&'static str, &'static str)] =
+        &[("reach_goal_region", "goal_region")];
+
+    fn validate(section: &ReachConfig, _config: &EnvConfig) -> Result<()> {
+        let [low, high] = section.goal_region;
+        for i in 0..3 {
+            validate_range("task.goal_region", [low[i], high[i]], f64::NEG_INFINITY)?;
+        }
+        Ok(())
+    }
+
+    fn build(section: &ReachConfig, config: &EnvConfig) -> Self {
+        Self {
+            section: section.clone(),
+            config: config.clone(),
+        }
+    }
+}
+
 /// Move the tool centre point to the goal (see the module documentation).
 #[derive(Debug, Clone)]
 pub struct Reach {
+    section: ReachConfig,
     config: EnvConfig,
 }
 
 impl Reach {
-    /// The task as `config` sets it up.
-    pub fn new(config: &EnvConfig) -> Self {
-        Self {
-            config: config.clone(),
-        }
-    }
-
     /// The reward for one pair of goals.
     fn reward(&self, achieved: &[f32], desired: &[f32]) -> (f64, bool, f32) {
         let distance = RewardFunction::distance(achieved, desired);
@@ -70,7 +115,7 @@ impl Reach {
 
 impl Task for Reach {
     fn name(&self) -> &'static str {
-        "reach"
+        Self::DESCRIPTOR.name
     }
 
     fn scene(&self, _config: &EnvConfig) -> Scene {
@@ -100,7 +145,7 @@ impl Task for Reach {
     }
 
     fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart) {
-        let [low, high] = self.config.reach_goal_region;
+        let [low, high] = self.section.goal_region;
         let mut goal = [0.0; 3];
         for i in 0..3 {
             goal[i] = low[i] + (high[i] - low[i]) * rng.random::<f64>();
@@ -165,7 +210,7 @@ mod tests {
 
     #[test]
     fn panda_layout_matches_the_documented_table() {
-        let task = Reach::new(&EnvConfig::default());
+        let task = Reach::build(&Default::default(), &EnvConfig::default());
         crate::task::observation::assert_documented_layout(&task, include_str!("reach.rs"), 31);
     }
 }

@@ -27,9 +27,10 @@
 //! | 66..69 | `observation` 54..57 | `cube2_relative_position` | 3 | cube2's centre minus TCP position |
 //!
 //! # Starting state
-//! Both cubes on the floor in `pick_region`, one in each half along y with 0.1 m between the
-//! halves (which cube gets which half is drawn), each with a uniform yaw in `cube_yaw_range`.
-//! cube1's goal is uniform in `goal_region` resting on the platform; cube2's is straight above
+//! Both cubes on the floor in `task.cube_region`, one in each half along y with 0.1 m between
+//! the halves (which cube gets which half is drawn), each with a uniform yaw in
+//! `task.cube_yaw_range` (see [`StackConfig`]). cube1's goal is uniform in `task.goal_region`
+//! resting on the platform; cube2's is straight above
 //! it, resting on cube1. The reset options `cube_position` and `goal` set cube1's start and
 //! goal; `cube_yaw` both yaws.
 //!
@@ -46,8 +47,11 @@
 use nalgebra::Vector3;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
 
-use super::episode::{cube_orientation, CubeProperties};
+use super::config::{Range, Region};
+use super::episode::{cube_orientation, CubeProperties, CUBE_REGION, CUBE_YAW_RANGE};
+use super::registry::{TaskDescriptor, TaskSpec};
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, ObjectSpec, ObjectTouch, Scene, Simulation};
@@ -102,25 +106,78 @@ const fn cube_slot(name: &'static str, size: usize, description: &'static str) -
 
 /// One position per cube.
 const GOAL_DIM: usize = 6;
-/// Gap (m) along y between the halves of `pick_region` the two cubes start in.
+/// Gap (m) along y between the halves of `task.cube_region` the two cubes start in.
 const START_GAP: f64 = 0.1;
+
+/// The `stack` section of the configuration (`{"task": {"name": "stack", ...}}`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct StackConfig {
+    /// Where the cubes' centres start, on the floor clear of the platform, one in each half
+    /// along y (`pick_region` before 0.2).
+    pub cube_region: Region,
+    /// Range of the cubes' start yaws (rad).
+    pub cube_yaw_range: Range,
+    /// Where the bottom cube's goal is drawn, on the platform's top.
+    pub goal_region: Region,
+}
+
+impl Default for StackConfig {
+    fn default() -> Self {
+        Self {
+            cube_region: CUBE_REGION,
+            cube_yaw_range: CUBE_YAW_RANGE,
+            goal_region: Region {
+                low: [0.42, 0.22],
+                high: [0.58, 0.38],
+            },
+        }
+    }
+}
+
+impl TaskSpec for Stack {
+    type Config = StackConfig;
+
+    const DESCRIPTOR: TaskDescriptor = TaskDescriptor {
+        name: "stack",
+        id_stem: "Stack",
+        // Two pick-and-places: the expert's `joints` episodes take 101 to 108 steps on
+        // average, 139 at most.
+        episode_steps: 150,
+        has_platform: true,
+        summary: "stack two cubes on the goal on the platform",
+    };
+
+    const LEGACY_KEYS: &'static [(&'static str, &'static str)] = &[
+        ("pick_region", "cube_region"),
+        ("cube_yaw_range", "cube_yaw_range"),
+        ("goal_region", "goal_region"),
+    ];
+
+    fn validate(section: &StackConfig, config: &EnvConfig) -> Result<()> {
+        EnvConfig::validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
+        section.goal_region.validate("task.goal_region")?;
+        config.validate_platform_regions(&section.cube_region, &section.goal_region)
+    }
+
+    fn build(section: &StackConfig, config: &EnvConfig) -> Self {
+        Self {
+            section: section.clone(),
+            config: config.clone(),
+            cubes: None,
+        }
+    }
+}
 
 /// Stack the two cubes on the platform (see the module documentation).
 #[derive(Debug, Clone)]
 pub struct Stack {
+    section: StackConfig,
     config: EnvConfig,
     cubes: Option<[ObjectId; 2]>,
 }
 
 impl Stack {
-    /// The task as `config` sets it up.
-    pub fn new(config: &EnvConfig) -> Self {
-        Self {
-            config: config.clone(),
-            cubes: None,
-        }
-    }
-
     fn cubes(&self) -> [ObjectId; 2] {
         // `bind` runs before any episode; unbound, the scene's objects are in order.
         self.cubes
@@ -173,7 +230,7 @@ struct Judgement {
 
 impl Task for Stack {
     fn name(&self) -> &'static str {
-        "stack"
+        Self::DESCRIPTOR.name
     }
 
     fn scene(&self, config: &EnvConfig) -> Scene {
@@ -216,14 +273,14 @@ impl Task for Stack {
         let first_u = [draw(), draw()];
         let second_u = [draw(), draw()];
         let yaw_u = [draw(), draw()];
-        let goal_xy = config.goal_region.lerp([draw(), draw()]);
+        let goal_xy = self.section.goal_region.lerp([draw(), draw()]);
         let size_u = draw();
         let mass_u = draw();
         let friction_u = draw();
         let properties = CubeProperties::draw(config, [size_u, mass_u, friction_u]);
         let size = properties.size;
         // The two halves of the pick region along y, a gap between them.
-        let region = config.pick_region;
+        let region = self.section.cube_region;
         let middle = (region.low[1] + region.high[1]) / 2.0;
         let half_gap = START_GAP.min(region.high[1] - region.low[1]) / 2.0;
         let low_half = |u: [f64; 2]| {
@@ -243,7 +300,7 @@ impl Task for Stack {
         } else {
             (high_half(first_u), low_half(second_u))
         };
-        let yaw = |u: f64| cube_orientation(config, u, options);
+        let yaw = |u: f64| cube_orientation(self.section.cube_yaw_range, u, options);
         let platform_top = config.sim.platform.top_center[2];
         let bottom_goal = options.goal.map_or(
             Vector3::new(goal_xy[0], goal_xy[1], platform_top + size / 2.0),
@@ -347,7 +404,7 @@ mod tests {
 
     #[test]
     fn panda_layout_matches_the_documented_table() {
-        let task = Stack::new(&EnvConfig::default());
+        let task = Stack::build(&Default::default(), &EnvConfig::default());
         crate::task::observation::assert_documented_layout(&task, include_str!("stack.rs"), 69);
     }
 }

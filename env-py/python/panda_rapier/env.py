@@ -20,18 +20,25 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     on a platform.
 
     ## Tasks
-    The ``task`` option (each registered id sets it):
+    The ``task`` option (each registered id sets it): a task's name, or its section of the
+    configuration, ``task={"name": "push", "goal_region": {"low": [0.4, 0.1], "high": [0.6,
+    0.2]}}``, whose fields (regions, ranges) are the task's own; fields left out keep their
+    defaults. ``panda_rapier.registration.TASKS`` lists every task with its defaults.
 
     - ``"pick_and_place"`` (``PickAndPlace*`` ids, the default): described below.
-    - ``"reach"`` (``Reach*``): move the TCP to a goal in the air, uniform in
-      ``reach_goal_region``; no objects; ``achieved_goal`` is the TCP position, the observation
+    - ``"reach"`` (``Reach*``): move the TCP to a goal in the air, uniform in the box
+      ``goal_region``; no objects; ``achieved_goal`` is the TCP position, the observation
       has the robot's 25 entries; dense reward ``1 - tanh(5 d)``; 50 steps.
-    - ``"lift"`` (``Lift*``): the cube to a goal ``lift_height`` above its start; no platform;
+    - ``"lift"`` (``Lift*``): the cube to a goal ``goal_height`` above its start; no platform;
       pick-and-place's observation and rewards.
-    - ``"push"`` (``Push*``): push the cube along the floor to a goal in ``push_goal_region``,
+    - ``"push"`` (``Push*``): push the cube along the floor to a goal in ``goal_region``,
       fingers closed; no platform; pick-and-place's observation; dense reward reach + carry.
     - ``"stack"`` (``Stack*``): one cube on the goal on the platform, the other on top;
       6-D goals (both cubes), 57-entry observation (both cubes' slots); 150 steps.
+
+    Before 0.2 the tasks' fields were top-level options (``pick_region``,
+    ``reach_goal_region``, ``lift_height``, ``push_goal_region``, ``goal_air_probability``,
+    ...). They still work, each with a ``FutureWarning`` naming the new spelling, until 0.3.
 
     ``env.unwrapped.schema`` lists every observation slot and info key of the task. The rest
     of this text describes pick-and-place; the core's ``env-core/src/task/<task>.rs`` documents
@@ -41,8 +48,8 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     A Panda on a fixed base, a 5 cm cube on the floor in front of it and a raised platform to
     its left, simulated by rapier3d (multibody arm with torque-limited joint motors, friction
     grasp: the fingers hold the cube by contact forces alone). The goal is a point on the
-    platform (optionally in the air, ``goal_air_probability``); the cube must be carried there
-    and, for ``is_placed``, released at rest.
+    platform (optionally in the air, the task's ``goal_air_probability``); the cube must be
+    carried there and, for ``is_placed``, released at rest.
 
     Two fidelity levels: ``arm="dynamic"`` (default) simulates the arm's dynamics: its joints
     are motors with the Panda's torque limits that track the commanded targets against
@@ -88,8 +95,8 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     either from goals and infos, batched, for hindsight experience replay.
 
     ## Starting State
-    The arm in its ready pose (optionally with ``randomization.joint_noise``), the cube in
-    ``pick_region`` with a yaw in ``cube_yaw_range``, the goal in ``goal_region``.
+    The arm in its ready pose (optionally with ``randomization.joint_noise``), the cube in the
+    task's ``cube_region`` with a yaw in ``cube_yaw_range``, the goal in ``goal_region``.
     ``reset(options=...)`` overrides ``cube_position``, ``cube_yaw``, ``goal`` or
     ``joint_positions``.
 
@@ -108,9 +115,9 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     ## Arguments
     Every field of the configuration (see the core's ``EnvConfig``) as a keyword argument,
     nested ones as dicts: ``arm``, ``control_mode``, ``reward_type``, ``max_episode_steps``,
-    ``control_frequency``, ``success_threshold``, ``terminate_on_success``, ``pick_region``,
-    ``goal_region``, ``goal_air_probability``, ``randomization``, ``sim``, ... Unknown or invalid
-    values raise :class:`~panda_rapier.ConfigError`.
+    ``control_frequency``, ``success_threshold``, ``terminate_on_success``, ``task``,
+    ``randomization``, ``sim``, ... Unknown or invalid values raise
+    :class:`~panda_rapier.ConfigError`.
 
     ## Rendering
     ``render_mode="rgb_array"``: :meth:`render` returns an HxWx3 uint8 frame drawn on the CPU

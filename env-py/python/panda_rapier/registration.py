@@ -7,34 +7,24 @@ from typing import Any
 
 import gymnasium as gym
 
-from ._native import default_config_json
+from ._native import default_config_json, tasks
 
 #: Episode length of the pick-and-place and lift ids: the core's default, 70 steps at 25 Hz
 #: (2.8 s), the length the scripted baseline needs to place the cube in 99 % of episodes in both
 #: action modes (see ``help(panda_rapier.PandaEnv)``).
 MAX_EPISODE_STEPS: int = json.loads(default_config_json())["max_episode_steps"]
 
-#: Episode length of each task's ids: reach takes panda-gym's 50 steps (the scripted expert
-#: needs at most 26); the cube tasks the default (push: the scripted expert succeeds in 99.6 to
-#: 99.9 % of 1,000 episodes in 70 steps in each action mode and arm, its 95th percentile at
-#: 43 to 57 steps); stack, two pick-and-places, 150 (the expert's `joints` episodes take 101
-#: to 108 steps on average, 139 at most).
-TASK_EPISODE_STEPS: dict[str, int] = {
-    "pick_and_place": MAX_EPISODE_STEPS,
-    "reach": 50,
-    "lift": MAX_EPISODE_STEPS,
-    "stack": 150,
-    "push": MAX_EPISODE_STEPS,
-}
+#: Every task's static facts, as the core's registry (``env-core/src/task/registry.rs``)
+#: lists them: ``name``, ``id_stem``, ``episode_steps``, ``has_platform``, ``summary`` and
+#: ``defaults`` (the JSON of its configuration section's defaults).
+TASKS: tuple[dict[str, Any], ...] = tuple(tasks())
+
+#: Episode length of each task's ids (the task's descriptor: long enough for the scripted
+#: expert in both action modes; reach takes panda-gym's 50 steps, stack 150).
+TASK_EPISODE_STEPS: dict[str, int] = {t["name"]: int(t["episode_steps"]) for t in TASKS}
 
 #: Id stem of each task, in the order tables list them.
-TASK_NAMES: dict[str, str] = {
-    "pick_and_place": "PickAndPlace",
-    "reach": "Reach",
-    "lift": "Lift",
-    "stack": "Stack",
-    "push": "Push",
-}
+TASK_NAMES: dict[str, str] = {t["name"]: str(t["id_stem"]) for t in TASKS}
 
 _VARIANTS: dict[str, dict[str, Any]] = {
     f"panda_rapier/{name}{dense}-v0": {

@@ -242,7 +242,7 @@ impl ScriptedPolicy {
         let cube = v3(&s.achieved);
         let goal = v3(&s.desired);
         let tcp = v3(&s.tcp);
-        if self.config.task == TaskKind::Reach {
+        if self.config.task.kind() == TaskKind::Reach {
             // No cube: straight to the goal, slowing down on arrival; the hand stays open.
             let gain = if (goal - tcp).norm() < p.arrival_distance {
                 p.arrival_gain
@@ -258,11 +258,11 @@ impl ScriptedPolicy {
             });
         }
         let width = observation[s.width] as f64;
-        if self.config.task == TaskKind::Push {
+        if self.config.task.kind() == TaskKind::Push {
             return Ok(self.decide_push(observation, cube, goal, tcp, width));
         }
         let horizontal = |v: Vector3<f64>| v.xy().norm();
-        let stack = self.config.task == TaskKind::Stack;
+        let stack = self.config.task.kind() == TaskKind::Stack;
         let target = if stack {
             self.stack_target(observation, cube, goal, tcp)
         } else {
