@@ -140,7 +140,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     .filter(|r| {
                         r.c2[2] > 0.06
                             && r.width < 0.075
-                            && matches!(r.phase, Phase::Carry | Phase::Lower)
+                            && matches!(r.phase, Phase::CARRY | Phase::LOWER)
                     })
                     .map(|r| tilt90(r.q2))
                     .fold(0.0, f32::max);
@@ -150,7 +150,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         let pos = |r: &Row| if cube == 0 { r.c1 } else { r.c2 };
                         let q = |r: &Row| if cube == 0 { r.q1 } else { r.q2 };
                         if let Some(k) = log.iter().position(|r| {
-                            r.phase == Phase::Close
+                            r.phase == Phase::CLOSE
                                 && pos(r)[2] < 0.04
                                 && (pos(r)[0] - r.tcp[0]).hypot(pos(r)[1] - r.tcp[1]) < 0.03
                         }) {

@@ -107,7 +107,7 @@ fn recovers_when_the_cube_is_taken_from_the_hand() {
     for step in 0..200 {
         let phase = policy.act(env.observation(), &mut action).unwrap();
         phases.push(phase);
-        if phase == Phase::Carry && !snatched {
+        if phase == Phase::CARRY && !snatched {
             // Put the cube back on the floor, away from the hand.
             let cube = env.simulation().object("cube").unwrap();
             env.simulation_mut()
@@ -128,10 +128,10 @@ fn recovers_when_the_cube_is_taken_from_the_hand() {
         }
     }
     assert!(snatched, "never carried: {phases:?}");
-    let after = phases.iter().rposition(|&p| p == Phase::Carry).unwrap();
-    let first_carry = phases.iter().position(|&p| p == Phase::Carry).unwrap();
+    let after = phases.iter().rposition(|&p| p == Phase::CARRY).unwrap();
+    let first_carry = phases.iter().position(|&p| p == Phase::CARRY).unwrap();
     assert!(
-        phases[first_carry..after].contains(&Phase::Approach),
+        phases[first_carry..after].contains(&Phase::APPROACH),
         "no re-approach after losing the cube: {phases:?}"
     );
     assert!(
