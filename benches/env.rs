@@ -8,9 +8,7 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use panda_rapier::policies::ScriptedPolicy;
-use panda_rapier::task::{
-    ControlMode, EnvConfig, PandaEnv, ResetOptions, RewardContext, RewardType,
-};
+use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions, RewardType};
 use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -104,7 +102,7 @@ fn compute_reward(c: &mut Criterion) {
     group.throughput(Throughput::Elements(n as u64));
     let achieved = random_actions(3 * n, 3);
     let desired = random_actions(3 * n, 4);
-    let contexts = vec![RewardContext::default(); n];
+    let contexts = vec![0.0f32; 7 * n];
     let mut out = vec![0.0f32; n];
     for reward_type in [RewardType::Sparse, RewardType::Dense] {
         let config = EnvConfig {

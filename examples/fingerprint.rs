@@ -66,29 +66,17 @@ fn hash_step(
     reward: f32,
     info: &panda_rapier::task::StepInfo,
 ) {
+    use panda_rapier::task::InfoValue;
     for v in observation {
         v.to_bits().hash(h);
     }
     reward.to_bits().hash(h);
-    (
-        info.is_success,
-        info.is_grasped,
-        info.is_lifted,
-        info.is_placed,
-        info.physics_unstable,
-        info.arm_blocked,
-        info.elapsed_steps,
-    )
-        .hash(h);
-    info.goal_distance.to_bits().hash(h);
-    info.ik_position_error.to_bits().hash(h);
-    let c = &info.context;
-    for v in [c.reach, c.grasp, c.lift, c.gripper_opening] {
-        v.to_bits().hash(h);
-    }
-    (c.cube_released, c.cube_at_rest, c.cube_on_platform).hash(h);
-    let t = &info.terms;
-    for v in [t.reach, t.grasp, t.lift, t.carry, t.place, t.release] {
-        v.to_bits().hash(h);
+    for (field, value) in info.entries() {
+        field.key.hash(h);
+        match value {
+            InfoValue::Bool(b) => b.hash(h),
+            InfoValue::Float(x) => x.to_bits().hash(h),
+            InfoValue::Int(n) => n.hash(h),
+        }
     }
 }

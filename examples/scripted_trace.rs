@@ -51,8 +51,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             get("achieved_goal"),
             get("desired_goal"),
             get("gripper_width")[0],
-            t.info.is_grasped,
-            t.info.is_placed,
+            t.info.flag("is_grasped"),
+            t.info.flag("is_placed"),
             t.info.goal_distance
         );
         if t.truncated || t.terminated {

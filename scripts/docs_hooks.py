@@ -154,13 +154,25 @@ def _page(task: str, title: str, figures: dict[str, Any]) -> str:
 
     parts.append("\n## Starting state, success and rewards\n")
     parts.append(body + "\n")
-    weights = defaults["reward_weights"]
+    terms = next(t["reward_terms"] for t in TASKS if t["name"] == task)
     parts.append(
-        "The dense ids sum the weighted terms below (`reward_weights`); each weighted term is "
-        "also in the info as `reward_<term>`:\n\n"
+        "The dense ids sum the weighted terms below (`reward_weights={name: weight}` sets "
+        "them; a name the task's reward lacks is an error); each weighted term is also in "
+        "the info, under its key:\n\n"
     )
     parts.append(
-        _table(["term", "default weight"], [[f"`{k}`", f"{v:g}"] for k, v in weights.items()])
+        _table(
+            ["term", "default weight", "info key", "pays"],
+            [
+                [
+                    f"`{t['name']}`",
+                    f"{t['default_weight']:g}",
+                    f"`{t['info_key']}`",
+                    t["description"],
+                ]
+                for t in terms
+            ],
+        )
     )
     parts.append(f"\nSuccess threshold (`success_threshold`): {defaults['success_threshold']} m.\n")
 
@@ -189,7 +201,7 @@ def _page(task: str, title: str, figures: dict[str, Any]) -> str:
 
     parts.append("\n## The scripted expert\n")
     record = figures["figures"]
-    placing = task in ("pick_and_place", "stack")  # the tasks with an `is_placed` predicate
+    placing = next(bool(t["has_placed"]) for t in TASKS if t["name"] == task)
     rows = []
     for env_id in (f"panda_rapier/{title}-v0", f"panda_rapier/{title}Joints-v0"):
         f = record[env_id]

@@ -122,7 +122,7 @@ fn recovers_when_the_cube_is_taken_from_the_hand() {
             continue;
         }
         let t = env.step(&action).unwrap();
-        if t.info.is_placed {
+        if t.info.flag("is_placed") {
             placed_at = Some(step);
             break;
         }

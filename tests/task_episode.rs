@@ -63,18 +63,20 @@ fn run_episode(env: &mut PandaEnv, seed: u64, verbose: bool) -> (Option<u32>, [b
             let tcp = env.simulation().tcp_state();
             println!(
                 "{step:3} phase {phase} r {:7.3} d {:.3} grasp {} lift {} succ {} placed {} f {:.1?} yaw {:.2} rpy {:.2?} cube-tcp {:.3?} v {:.2}",
-                t.reward, i.goal_distance, i.is_grasped, i.is_lifted, i.is_success, i.is_placed,
+                t.reward, i.goal_distance, i.flag("is_grasped"), i.flag("is_lifted"), i.is_success, i.flag("is_placed"),
                 touch.finger_forces, cube.orientation.euler_angles().2, cube.orientation.euler_angles(),
                 (cube.position - tcp.position).as_slice(), tcp.linear_velocity.norm()
             );
         }
-        for (s, flag) in seen
-            .iter_mut()
-            .zip([i.is_grasped, i.is_lifted, i.is_success, i.is_placed])
-        {
+        for (s, flag) in seen.iter_mut().zip([
+            i.flag("is_grasped"),
+            i.flag("is_lifted"),
+            i.is_success,
+            i.flag("is_placed"),
+        ]) {
             *s |= flag;
         }
-        if i.is_placed {
+        if i.flag("is_placed") {
             return (Some(step + 1), seen);
         }
     }

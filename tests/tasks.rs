@@ -5,8 +5,7 @@
 
 use panda_rapier::policies::{evaluate, ScriptedPolicy};
 use panda_rapier::task::{
-    ControlMode, EnvConfig, ObservationLayout, PandaEnv, ResetOptions, RewardContext, RewardType,
-    TaskKind,
+    ControlMode, EnvConfig, ObservationLayout, PandaEnv, ResetOptions, RewardType, TaskKind,
 };
 use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use panda_rapier::{ArmFidelity, Error};
@@ -118,7 +117,7 @@ fn every_task_refuses_bad_input_with_typed_errors() {
         ));
         let mut out = [0.0f32; 1];
         assert!(env
-            .compute_rewards(&[0.0; 3], &[0.0; 2], &[RewardContext::default()], &mut out)
+            .compute_rewards(&[0.0; 3], &[0.0; 2], &[0.0; 7], &mut out)
             .is_err());
         assert!(env
             .compute_rewards(&[f32::NAN, 0.0, 0.0], &[0.0; 3], &[], &mut out)
@@ -152,7 +151,10 @@ fn every_task_reproduces_its_step_rewards_from_goals_and_infos() {
                     let t = env.step(&action).unwrap();
                     achieved.extend_from_slice(&env.observation()[layout.achieved_goal()]);
                     desired.extend_from_slice(&env.observation()[layout.desired_goal()]);
-                    contexts.push(t.info.context);
+                    let keys = env.task().descriptor().reward_context_keys;
+                    let mut row = vec![0.0f32; keys.len()];
+                    t.info.reward_context(keys, &mut row);
+                    contexts.extend(row);
                     rewards.push(t.reward);
                 }
             }

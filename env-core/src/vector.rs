@@ -14,9 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ensure_len, Error, Result};
 use crate::sensor::{Sensor, SensorSlot};
-use crate::task::{
-    EnvConfig, ObservationLayout, PandaEnv, ResetOptions, RewardContext, StepInfo, Transition,
-};
+use crate::task::{EnvConfig, ObservationLayout, PandaEnv, ResetOptions, StepInfo, Transition};
 
 /// What happens when an episode ends inside [`PandaVecEnv::step`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -218,7 +216,7 @@ impl PandaVecEnv {
         &self,
         achieved: &[f32],
         desired: &[f32],
-        contexts: &[RewardContext],
+        contexts: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
         self.lanes[0]

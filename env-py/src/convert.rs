@@ -1,9 +1,9 @@
 //! Conversions between core values and Python objects: info dicts, batched info columns,
 //! reward contexts read back from Python, poses.
 
-use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{PyArray1, PyReadonlyArray2};
 use panda_rapier_core::nalgebra::{Isometry3, Quaternion, UnitQuaternion, Vector3};
-use panda_rapier_core::task::{InfoType, InfoValue, RewardContext, INFO_FIELDS};
+use panda_rapier_core::task::{InfoField, InfoType, InfoValue, COMMON_INFO_FIELDS};
 use panda_rapier_core::{Error, StepInfo};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
@@ -16,21 +16,32 @@ pub(crate) fn info_dict<'py>(py: Python<'py>, info: &StepInfo) -> PyResult<Bound
     Ok(dicts.remove(0))
 }
 
-/// The infos of a batch as one dict of Python scalars per environment. The key strings are
-/// made once per call and shared by every dict (making them per dict cost more than the
-/// values: about 1.4 us per dict).
+/// The fields of an info: every task's, then the task's own.
+fn fields_of(info: &StepInfo) -> Vec<&'static InfoField> {
+    COMMON_INFO_FIELDS
+        .iter()
+        .chain(info.task.fields())
+        .collect()
+}
+
+/// The infos of a batch (of one task) as one dict of Python scalars per environment. The key
+/// strings are made once per call and shared by every dict (making them per dict cost more
+/// than the values: about 1.4 us per dict).
 pub(crate) fn info_dicts<'a, 'py>(
     py: Python<'py>,
     infos: impl Iterator<Item = &'a StepInfo>,
 ) -> PyResult<Vec<Bound<'py, PyDict>>> {
-    let keys: Vec<Bound<'py, PyString>> = INFO_FIELDS
-        .iter()
-        .map(|field| PyString::intern(py, field.key))
-        .collect();
+    let mut keys: Vec<Bound<'py, PyString>> = Vec::new();
     infos
         .map(|info| {
+            if keys.is_empty() {
+                keys = fields_of(info)
+                    .iter()
+                    .map(|field| PyString::intern(py, field.key))
+                    .collect();
+            }
             let dict = PyDict::new(py);
-            for (key, value) in keys.iter().zip(info.values()) {
+            for (key, (_, value)) in keys.iter().zip(info.entries()) {
                 match value {
                     InfoValue::Bool(v) => dict.set_item(key, v)?,
                     InfoValue::Float(v) => dict.set_item(key, v)?,
@@ -42,14 +53,20 @@ pub(crate) fn info_dicts<'a, 'py>(
         .collect()
 }
 
-/// The infos of a batch as one numpy array per key (bool, float64 or int64).
+/// The infos of a batch (of one task) as one numpy array per key (bool, float64 or int64).
 pub(crate) fn info_columns<'py>(
     py: Python<'py>,
     infos: &[StepInfo],
 ) -> PyResult<Bound<'py, PyDict>> {
     let dict = PyDict::new(py);
-    let rows: Vec<_> = infos.iter().map(StepInfo::values).collect();
-    for (k, field) in INFO_FIELDS.iter().enumerate() {
+    let Some(first) = infos.first() else {
+        return Ok(dict);
+    };
+    let rows: Vec<Vec<InfoValue>> = infos
+        .iter()
+        .map(|info| info.entries().map(|(_, v)| v).collect())
+        .collect();
+    for (k, field) in fields_of(first).into_iter().enumerate() {
         let column = rows.iter().map(|row| row[k]);
         match field.dtype {
             InfoType::Bool => {
@@ -79,25 +96,16 @@ pub(crate) fn info_columns<'py>(
     Ok(dict)
 }
 
-/// The goal-free reward inputs of `n` transitions, as columns gathered from infos by the
-/// Python side: `(reward_reach, reward_grasp, reward_lift, gripper_opening)` float32 and
-/// `(cube_released, cube_at_rest, cube_on_platform)` bool.
-pub(crate) type ContextColumns<'py> = (
-    PyReadonlyArray1<'py, f32>,
-    PyReadonlyArray1<'py, f32>,
-    PyReadonlyArray1<'py, f32>,
-    PyReadonlyArray1<'py, f32>,
-    PyReadonlyArray1<'py, bool>,
-    PyReadonlyArray1<'py, bool>,
-    PyReadonlyArray1<'py, bool>,
-);
+/// The goal-free reward inputs of `n` transitions, gathered from infos by the Python side:
+/// an `n x k` float32 array of the task's `reward_context_keys` (flags as 0 or 1).
+pub(crate) type ContextColumns<'py> = PyReadonlyArray2<'py, f32>;
 
 /// Batched reward through the task's `compute_rewards`: `achieved` and `desired` are
-/// `n x goal_dim` float32; `context` is required for the dense reward.
+/// `n x goal_dim` float32; `context` (`n x k`) is required for a dense reward that reads one.
 pub(crate) fn compute_reward<'py>(
     py: Python<'py>,
     goal_dim: usize,
-    compute: impl FnOnce(&[f32], &[f32], &[RewardContext], &mut [f32]) -> Result<(), Error>,
+    compute: impl FnOnce(&[f32], &[f32], &[f32], &mut [f32]) -> Result<(), Error>,
     achieved: PyReadonlyArray2<'py, f32>,
     desired: PyReadonlyArray2<'py, f32>,
     context: Option<ContextColumns<'py>>,
@@ -105,37 +113,21 @@ pub(crate) fn compute_reward<'py>(
     let achieved = contiguous(py, &achieved, "achieved_goal")?;
     let desired = contiguous(py, &desired, "desired_goal")?;
     let n = achieved.len() / goal_dim.max(1);
-    let contexts: Vec<RewardContext> = match context {
-        None => Vec::new(),
-        Some((reach, grasp, lift, opening, released, at_rest, on_platform)) => {
-            let columns = [&reach, &grasp, &lift, &opening];
-            let flags = [&released, &at_rest, &on_platform];
-            if columns.iter().any(|c| c.as_array().len() != n)
-                || flags.iter().any(|c| c.as_array().len() != n)
-            {
+    let contexts: &[f32] = match &context {
+        None => &[],
+        Some(rows) => {
+            if rows.as_array().nrows() != n {
                 return Err(invalid(
                     py,
                     ErrorClass::InvalidArgument,
                     format!("info must describe {n} transitions, one per goal pair"),
                 ));
             }
-            let [reach, grasp, lift, opening] = columns.map(|c| c.as_array());
-            let [released, at_rest, on_platform] = flags.map(|c| c.as_array());
-            (0..n)
-                .map(|i| RewardContext {
-                    reach: reach[i],
-                    grasp: grasp[i],
-                    lift: lift[i],
-                    cube_released: released[i],
-                    cube_at_rest: at_rest[i],
-                    cube_on_platform: on_platform[i],
-                    gripper_opening: opening[i],
-                })
-                .collect()
+            contiguous(py, rows, "reward context")?
         }
     };
     let mut rewards = vec![0.0f32; n];
-    compute(achieved, desired, &contexts, &mut rewards).map_err(|e| crate::errors::to_py(py, e))?;
+    compute(achieved, desired, contexts, &mut rewards).map_err(|e| crate::errors::to_py(py, e))?;
     Ok(PyArray1::from_vec(
         py,
         rewards.into_iter().map(f64::from).collect(),

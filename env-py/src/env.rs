@@ -66,7 +66,7 @@ impl NativeEnv {
 
     /// The full configuration as JSON (defaults filled in).
     fn config_json(&self) -> String {
-        serde_json::to_string(self.env.config()).unwrap_or_default()
+        serde_json::to_string(&self.env.config().resolved()).unwrap_or_default()
     }
 
     #[getter]

@@ -21,12 +21,14 @@ mod vector;
 /// The default environment configuration as JSON (every field filled in).
 #[pyfunction]
 fn default_config_json() -> String {
-    serde_json::to_string(&panda_rapier_core::EnvConfig::default()).unwrap_or_default()
+    serde_json::to_string(&panda_rapier_core::EnvConfig::default().resolved()).unwrap_or_default()
 }
 
 /// Every registered task's static facts, in the registry's order: dicts of `name`,
-/// `id_stem`, `episode_steps`, `has_platform`, `summary` and `defaults` (the task section's
-/// default fields as JSON). `panda_rapier.registration` builds the Gymnasium ids from it.
+/// `id_stem`, `episode_steps`, `has_platform`, `has_placed` (an `is_placed` predicate),
+/// `summary`, `defaults` (the task section's default fields as JSON) and `reward_terms`
+/// (dicts of `name`, `info_key`, `default_weight`, `description`).
+/// `panda_rapier.registration` builds the Gymnasium ids from it.
 #[pyfunction]
 fn tasks(py: Python<'_>) -> PyResult<Vec<Bound<'_, pyo3::types::PyDict>>> {
     use panda_rapier_core::task::{TaskConfig, TaskKind};
@@ -39,7 +41,21 @@ fn tasks(py: Python<'_>) -> PyResult<Vec<Bound<'_, pyo3::types::PyDict>>> {
             dict.set_item("id_stem", d.id_stem)?;
             dict.set_item("episode_steps", d.episode_steps)?;
             dict.set_item("has_platform", d.has_platform)?;
+            dict.set_item("has_placed", d.has_placed())?;
             dict.set_item("summary", d.summary)?;
+            let terms = d
+                .reward_terms
+                .iter()
+                .map(|t| {
+                    let term = pyo3::types::PyDict::new(py);
+                    term.set_item("name", t.name)?;
+                    term.set_item("info_key", t.info_key)?;
+                    term.set_item("default_weight", t.default_weight)?;
+                    term.set_item("description", t.description)?;
+                    Ok(term)
+                })
+                .collect::<PyResult<Vec<_>>>()?;
+            dict.set_item("reward_terms", terms)?;
             let defaults = serde_json::to_string(&TaskConfig::defaults(kind)).unwrap_or_default();
             dict.set_item("defaults", defaults)?;
             Ok(dict)
@@ -55,7 +71,7 @@ fn tasks(py: Python<'_>) -> PyResult<Vec<Bound<'_, pyo3::types::PyDict>>> {
 /// `reward_context_keys` (the info keys `compute_reward` reads, in order).
 #[pyfunction]
 fn schema<'py>(py: Python<'py>, config_json: &str) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
-    use panda_rapier_core::task::{ObservationLayout, INFO_FIELDS, REWARD_CONTEXT_KEYS};
+    use panda_rapier_core::task::{ObservationLayout, COMMON_INFO_FIELDS};
     use pyo3::types::PyDict;
     let config = env::parse_config(py, config_json)?;
     let (layout, action_dim) = errors::detached(py, || -> panda_rapier_core::Result<_> {
@@ -84,8 +100,10 @@ fn schema<'py>(py: Python<'py>, config_json: &str) -> PyResult<Bound<'py, pyo3::
         })
         .collect::<PyResult<Vec<_>>>()?;
     dict.set_item("observation", slots)?;
-    let info = INFO_FIELDS
+    let descriptor = config.task.kind().descriptor();
+    let info = COMMON_INFO_FIELDS
         .iter()
+        .chain(descriptor.info_fields)
         .map(|field| {
             let d = PyDict::new(py);
             d.set_item("key", field.key)?;
@@ -95,7 +113,10 @@ fn schema<'py>(py: Python<'py>, config_json: &str) -> PyResult<Bound<'py, pyo3::
         })
         .collect::<PyResult<Vec<_>>>()?;
     dict.set_item("info", info)?;
-    dict.set_item("reward_context_keys", REWARD_CONTEXT_KEYS.to_vec())?;
+    dict.set_item(
+        "reward_context_keys",
+        descriptor.reward_context_keys.to_vec(),
+    )?;
     Ok(dict)
 }
 

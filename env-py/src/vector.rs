@@ -94,7 +94,7 @@ impl NativeVecEnv {
 
     /// The full configuration as JSON (defaults filled in).
     fn config_json(&self) -> String {
-        serde_json::to_string(self.vec.config()).unwrap_or_default()
+        serde_json::to_string(&self.vec.config().resolved()).unwrap_or_default()
     }
 
     /// Resets the environments where `mask` is true (all without a mask); `seeds` has one

@@ -343,7 +343,7 @@ impl Evaluation {
             if info.is_success && record.steps_to_success.is_none() {
                 record.steps_to_success = Some(record.length);
             }
-            if info.is_placed && record.steps_to_placed.is_none() {
+            if info.flag("is_placed") && record.steps_to_placed.is_none() {
                 record.steps_to_placed = Some(record.length);
             }
             if done {

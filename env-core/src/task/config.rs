@@ -3,14 +3,17 @@
 //! Over 600 lines because [`EnvConfig`]'s doc test spells out every default value, which keeps
 //! the documented defaults true.
 
+use std::collections::BTreeMap;
+
 use serde::{Deserialize, Serialize};
 
 use crate::config::{invalid, non_negative, positive, ArmFidelity, SimConfig};
 use crate::error::Result;
-use crate::task::registry::{migrate_legacy_keys, Deprecation, TaskConfig, TaskKind};
 #[cfg(doc)]
-use crate::task::registry::{TaskDescriptor, TaskSpec};
-use crate::task::reward::RewardWeights;
+use crate::task::registry::TaskSpec;
+use crate::task::registry::{
+    migrate_legacy_keys, migrate_reward_weights, Deprecation, TaskConfig, TaskDescriptor, TaskKind,
+};
 
 /// How actions drive the robot.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -167,14 +170,7 @@ impl Default for TaskThresholds {
 ///   "arm": "dynamic",
 ///   "control_mode": "ee",
 ///   "reward_type": "sparse",
-///   "reward_weights": {
-///     "reach": 1.0,
-///     "grasp": 1.0,
-///     "lift": 1.0,
-///     "carry": 2.0,
-///     "place": 5.0,
-///     "release": 0.0
-///   },
+///   "reward_weights": {},
 ///   "max_episode_steps": 70,
 ///   "control_frequency": 25.0,
 ///   "success_threshold": 0.05,
@@ -257,9 +253,10 @@ pub struct EnvConfig {
     pub control_mode: ControlMode,
     /// Sparse or dense reward.
     pub reward_type: RewardType,
-    /// Weights of the dense reward's terms (see [`crate::task::reward`]); the sparse reward
-    /// does not read them.
-    pub reward_weights: RewardWeights,
+    /// Weights of the dense reward's terms by name, overriding the task's defaults
+    /// ([`TaskDescriptor::reward_terms`]); a name the task's reward does not have is an error.
+    /// The sparse reward does not read them.
+    pub reward_weights: BTreeMap<String, f64>,
     /// Steps after which an episode is truncated; `null` (`None`): never, for when an outer
     /// wrapper keeps time (Gymnasium's `TimeLimit`, which `gym.make` adds from the registry).
     /// The default, 70 steps (2.8 s at 25 Hz), is the episode length the scripted policy needs
@@ -310,7 +307,7 @@ impl Default for EnvConfig {
             task: TaskConfig::default(),
             control_mode: ControlMode::Ee,
             reward_type: RewardType::Sparse,
-            reward_weights: RewardWeights::default(),
+            reward_weights: BTreeMap::new(),
             max_episode_steps: Some(70),
             control_frequency: 25.0,
             success_threshold: 0.05,
@@ -356,7 +353,8 @@ impl EnvConfig {
     pub fn from_json_with_notes(text: &str) -> Result<(Self, Vec<Deprecation>)> {
         let mut document: serde_json::Value =
             serde_json::from_str(text).map_err(|e| invalid("<json>", e.to_string()))?;
-        let notes = migrate_legacy_keys(&mut document)?;
+        let mut notes = migrate_legacy_keys(&mut document)?;
+        notes.extend(migrate_reward_weights(&mut document)?);
         let config: Self =
             serde_json::from_value(document).map_err(|e| invalid("<json>", e.to_string()))?;
         config.validate()?;
@@ -478,6 +476,46 @@ impl EnvConfig {
         validate_range("task.cube_yaw_range", cube_yaw_range, f64::NEG_INFINITY)
     }
 
+    /// The weights of the task's reward terms: each term's default, or what `reward_weights`
+    /// sets.
+    pub fn reward_weights_resolved(&self) -> BTreeMap<&'static str, f64> {
+        let terms = self.task.kind().descriptor().reward_terms;
+        crate::task::reward::resolve_weights(terms, &self.reward_weights)
+    }
+
+    /// The configuration with every default spelt out: `reward_weights` holds the weight of
+    /// each of the task's terms (what `config_json` reports; it reads back as the same
+    /// environment).
+    pub fn resolved(&self) -> Self {
+        let mut config = self.clone();
+        config.reward_weights = self
+            .reward_weights_resolved()
+            .into_iter()
+            .map(|(name, weight)| (name.to_string(), weight))
+            .collect();
+        config
+    }
+
+    fn validate_reward_weights(&self) -> Result<()> {
+        let d: &TaskDescriptor = self.task.kind().descriptor();
+        for (name, &weight) in &self.reward_weights {
+            let field = format!("reward_weights.{name}");
+            if !d.reward_terms.iter().any(|t| t.name == name) {
+                let names: Vec<_> = d.reward_terms.iter().map(|t| t.name).collect();
+                return Err(invalid(
+                    &field,
+                    format!(
+                        "the {} task's reward has no {name:?} term; its terms: {}",
+                        d.name,
+                        names.join(", ")
+                    ),
+                ));
+            }
+            non_negative(&field, weight)?;
+        }
+        Ok(())
+    }
+
     /// Checks every value; the first problem is returned with its field name.
     pub fn validate(&self) -> Result<()> {
         self.sim_config()?.validate()?;
@@ -485,7 +523,7 @@ impl EnvConfig {
             return Err(invalid("max_episode_steps", "must be >= 1, got 0"));
         }
         positive("success_threshold", self.success_threshold)?;
-        self.reward_weights.validate()?;
+        self.validate_reward_weights()?;
         positive("ee_step", self.ee_step)?;
         positive("joint_step", self.joint_step)?;
         non_negative("ee_surface_clearance", self.ee_surface_clearance)?;
@@ -650,85 +688,5 @@ mod tests {
         assert!(err.to_string().contains("episode_length"), "{err}");
         let err = EnvConfig::from_json(r#"{"control_mode": "torque"}"#).unwrap_err();
         assert!(err.to_string().contains("torque"), "{err}");
-    }
-
-    #[test]
-    fn the_task_section_takes_a_name_or_fields() {
-        let short = EnvConfig::from_json(r#"{"task": "reach"}"#).unwrap();
-        assert_eq!(short.task.kind(), TaskKind::Reach);
-        let long = EnvConfig::from_json(
-            r#"{"task": {"name": "reach", "goal_region": [[0.4, -0.1, 0.1], [0.6, 0.1, 0.3]]}}"#,
-        )
-        .unwrap();
-        assert_ne!(long.task, short.task);
-        let text = serde_json::to_string(&long).unwrap();
-        assert_eq!(EnvConfig::from_json(&text).unwrap(), long);
-        for bad in [
-            r#"{"task": "slide"}"#,
-            r#"{"task": {"goal_region": [[0, 0, 0], [1, 1, 1]]}}"#,
-            r#"{"task": {"name": "reach", "goal_height": [0.1, 0.2]}}"#,
-            r#"{"task": 3}"#,
-        ] {
-            let err = EnvConfig::from_json(bad).unwrap_err();
-            assert!(matches!(err, Error::InvalidConfig { .. }), "{bad}: {err}");
-        }
-        let err = EnvConfig::from_json(r#"{"task": {"name": "reach", "goal_height": 1}}"#)
-            .unwrap_err()
-            .to_string();
-        assert!(err.contains("goal_height"), "{err}");
-    }
-
-    #[test]
-    fn keys_from_before_0_2_move_into_the_task_section_with_a_note() {
-        let (config, notes) = EnvConfig::from_json_with_notes(
-            r#"{"task": "reach", "reach_goal_region": [[0.4, -0.1, 0.1], [0.6, 0.1, 0.3]]}"#,
-        )
-        .unwrap();
-        let expected = EnvConfig::from_json(
-            r#"{"task": {"name": "reach", "goal_region": [[0.4, -0.1, 0.1], [0.6, 0.1, 0.3]]}}"#,
-        )
-        .unwrap();
-        assert_eq!(config, expected);
-        assert_eq!(notes.len(), 1);
-        assert_eq!(notes[0].key, "reach_goal_region");
-        assert!(notes[0].message.contains("0.3.0"), "{}", notes[0].message);
-        // Without a task: the default one's keys.
-        let (config, notes) =
-            EnvConfig::from_json_with_notes(r#"{"goal_air_probability": 0.5}"#).unwrap();
-        let TaskConfig::PickAndPlace(section) = &config.task else {
-            panic!("{config:?}")
-        };
-        assert_eq!(section.goal_air_probability, 0.5);
-        assert_eq!(notes.len(), 1);
-        // Another task's key at its old default: dropped with a note; otherwise an error.
-        let (config, notes) =
-            EnvConfig::from_json_with_notes(r#"{"task": "push", "lift_height": [0.05, 0.25]}"#)
-                .unwrap();
-        assert_eq!(config, EnvConfig::for_task(TaskKind::Push));
-        assert!(notes[0].message.contains("ignored"), "{}", notes[0].message);
-        let err =
-            EnvConfig::from_json(r#"{"task": "push", "lift_height": [0.1, 0.2]}"#).unwrap_err();
-        assert!(err.to_string().contains("lift_height"), "{err}");
-        // Both spellings at once.
-        let err = EnvConfig::from_json(
-            r#"{"task": {"name": "lift", "goal_height": [0.1, 0.2]}, "lift_height": [0.1, 0.2]}"#,
-        )
-        .unwrap_err();
-        assert!(err.to_string().contains("keep one"), "{err}");
-        // The old default document (every key of 0.1.0) still reads, for every task.
-        for task in TaskKind::ALL {
-            let old = format!(
-                r#"{{"task": "{task}", "pick_region": {{"low": [0.4, -0.2], "high": [0.6, 0.0]}},
-                "cube_yaw_range": [-0.25, 0.25],
-                "goal_region": {{"low": [0.42, 0.22], "high": [0.58, 0.38]}},
-                "goal_air_probability": 0.0, "goal_air_height": [0.05, 0.2],
-                "reach_goal_region": [[0.35, -0.25, 0.1], [0.65, 0.25, 0.4]],
-                "lift_height": [0.05, 0.25],
-                "push_goal_region": {{"low": [0.4, 0.05], "high": [0.6, 0.25]}}}}"#
-            );
-            let (config, notes) = EnvConfig::from_json_with_notes(&old).unwrap();
-            assert_eq!(config, EnvConfig::for_task(*task), "{task}");
-            assert_eq!(notes.len(), 8, "{task}");
-        }
     }
 }

@@ -13,7 +13,6 @@ use crate::task::episode::{EpisodeStart, ResetOptions, StepInfo, Transition};
 use crate::task::observation::{
     ObservationLayout, GRIPPER_WIDTH, JOINT_POSITIONS, JOINT_VELOCITIES, TCP_POSITION, TCP_VELOCITY,
 };
-use crate::task::reward::RewardContext;
 use crate::task::{make_task, Task, Verdict, View};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -221,13 +220,15 @@ impl PandaEnv {
         self.sim.control_period()
     }
 
-    /// The task's reward for `n` transitions, recomputed from `n x goal_dim` goals and one
-    /// reward context per transition (optional for the sparse reward): `compute_reward`.
+    /// The task's reward for `n` transitions, recomputed from `n x goal_dim` goals and `n`
+    /// rows of reward-context values (the task's
+    /// [`reward_context_keys`](crate::task::TaskDescriptor::reward_context_keys); optional for
+    /// the sparse reward): `compute_reward`.
     pub fn compute_rewards(
         &self,
         achieved: &[f32],
         desired: &[f32],
-        contexts: &[RewardContext],
+        contexts: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
         self.task.compute_rewards(achieved, desired, contexts, out)
@@ -280,8 +281,8 @@ impl PandaEnv {
             });
         }
         let ik_error = self.info.ik_position_error;
-        let opening = self.info.context.gripper_opening as f64;
-        self.info = self.step_info(&self.judge(opening), false, ik_error);
+        let opening = self.info.gripper_opening as f64;
+        self.info = self.step_info(&self.judge(opening), false, ik_error, opening);
         Ok(&self.info)
     }
 
@@ -348,7 +349,7 @@ impl PandaEnv {
             });
         }
         let opening = self.robot.gripper_opening(self.sim.gripper_width());
-        self.info = self.step_info(&self.judge(opening), false, f64::NAN);
+        self.info = self.step_info(&self.judge(opening), false, f64::NAN, opening);
         Ok(())
     }
 
@@ -413,7 +414,7 @@ impl PandaEnv {
         }
         let opening = self.robot.gripper_opening(plan.gripper_width);
         let verdict = self.judge(opening);
-        let mut info = self.step_info(&verdict, !stable, plan.ik_position_error);
+        let mut info = self.step_info(&verdict, !stable, plan.ik_position_error, opening);
         info.arm_blocked = self.sim.arm_blocked_steps() > blocked_before;
         self.info = info;
         Transition {
@@ -480,19 +481,22 @@ impl PandaEnv {
         })
     }
 
-    fn step_info(&self, verdict: &Verdict, unstable: bool, ik_error: f64) -> StepInfo {
+    fn step_info(
+        &self,
+        verdict: &Verdict,
+        unstable: bool,
+        ik_error: f64,
+        opening: f64,
+    ) -> StepInfo {
         StepInfo {
             is_success: verdict.is_success,
-            is_grasped: verdict.is_grasped,
-            is_lifted: verdict.is_lifted,
-            is_placed: verdict.is_placed,
             physics_unstable: unstable,
             goal_distance: verdict.goal_distance,
-            context: verdict.context,
-            terms: verdict.terms,
+            gripper_opening: opening as f32,
             ik_position_error: ik_error,
             elapsed_steps: self.elapsed,
             arm_blocked: false,
+            task: verdict.info,
         }
     }
 

@@ -6,8 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ensure_len, Error, Result};
 use crate::physics::ObjectId;
-use crate::task::observation::{InfoValue, INFO_FIELDS};
-use crate::task::reward::{RewardContext, RewardTerms};
+use crate::task::observation::{InfoField, InfoType, InfoValue, COMMON_INFO_FIELDS};
 
 /// Largest magnitude of a position a reset option may give (m): the observation's bound.
 pub const MAX_POSITION: f64 = 1000.0;
@@ -79,62 +78,173 @@ impl ResetOptions {
     }
 }
 
-/// What a step or reset reports besides the observation (Gymnasium's `info`).
+/// Most info entries a task may declare besides the common ones.
+pub const TASK_INFO_CAPACITY: usize = 16;
+
+/// A task's own info entries ([`TaskDescriptor::info_fields`](crate::task::TaskDescriptor)):
+/// the fields and their values, stored without allocating (flags as 0 or 1).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TaskInfo {
+    fields: &'static [InfoField],
+    values: [f64; TASK_INFO_CAPACITY],
+}
+
+impl Default for TaskInfo {
+    fn default() -> Self {
+        Self::new(&[])
+    }
+}
+
+impl TaskInfo {
+    /// Entries `fields`, all 0 / false.
+    pub fn new(fields: &'static [InfoField]) -> Self {
+        debug_assert!(fields.len() <= TASK_INFO_CAPACITY);
+        Self {
+            fields,
+            values: [0.0; TASK_INFO_CAPACITY],
+        }
+    }
+
+    /// Sets the entry `key` (a field of the task; others are ignored, and a debug build
+    /// panics, so a contract test catches a misspelt key).
+    pub fn set(&mut self, key: &str, value: impl Into<InfoValue>) {
+        match self.fields.iter().position(|f| f.key == key) {
+            Some(i) if i < TASK_INFO_CAPACITY => {
+                self.values[i] = match value.into() {
+                    InfoValue::Bool(b) => f64::from(u8::from(b)),
+                    InfoValue::Float(x) => x,
+                    InfoValue::Int(n) => n as f64,
+                }
+            }
+            _ => debug_assert!(false, "no info field {key:?}"),
+        }
+    }
+
+    /// The task's fields.
+    pub fn fields(&self) -> &'static [InfoField] {
+        self.fields
+    }
+
+    /// The entry `key`, typed as its field says, if the task has it.
+    pub fn get(&self, key: &str) -> Option<InfoValue> {
+        let i = self.fields.iter().position(|f| f.key == key)?;
+        Some(self.value(i))
+    }
+
+    fn value(&self, i: usize) -> InfoValue {
+        let v = self.values[i];
+        match self.fields[i].dtype {
+            InfoType::Bool => InfoValue::Bool(v != 0.0),
+            InfoType::Float => InfoValue::Float(v),
+            InfoType::Int => InfoValue::Int(v as i64),
+        }
+    }
+
+    /// Every entry, in field order.
+    pub fn entries(&self) -> impl Iterator<Item = (&'static InfoField, InfoValue)> + '_ {
+        self.fields
+            .iter()
+            .enumerate()
+            .map(|(i, f)| (f, self.value(i)))
+    }
+}
+
+impl From<bool> for InfoValue {
+    fn from(v: bool) -> Self {
+        InfoValue::Bool(v)
+    }
+}
+
+impl From<f64> for InfoValue {
+    fn from(v: f64) -> Self {
+        InfoValue::Float(v)
+    }
+}
+
+impl From<f32> for InfoValue {
+    fn from(v: f32) -> Self {
+        InfoValue::Float(v as f64)
+    }
+}
+
+/// What a step or reset reports besides the observation (Gymnasium's `info`): the entries of
+/// every task ([`COMMON_INFO_FIELDS`]) and the task's own ([`TaskInfo`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct StepInfo {
-    /// The cube is within the success threshold of the goal.
+    /// The task's success predicate holds.
     pub is_success: bool,
-    /// Both fingers squeeze the cube with at least the grasp force.
-    pub is_grasped: bool,
-    /// Grasped and touching neither the floor nor the platform.
-    pub is_lifted: bool,
-    /// Released, at rest, on the platform and within the threshold.
-    pub is_placed: bool,
     /// The physics blew up in this step (non-finite state or runaway speeds): the episode is
     /// truncated and the observation is the last valid one.
     pub physics_unstable: bool,
-    /// Distance from the cube to the goal (m).
+    /// Distance from the achieved to the desired goal (m).
     pub goal_distance: f64,
-    /// Goal-free inputs of the reward (pass them back to `compute_reward`).
-    pub context: RewardContext,
-    /// The dense reward's weighted terms (zero for the sparse reward).
-    pub terms: RewardTerms,
+    /// The gripper opening the last action commanded, from 0 (closed) to 1 (fully open); at
+    /// reset, the measured opening.
+    pub gripper_opening: f32,
     /// Position error (m) the inverse kinematics left on the TCP target (`ee` control).
     pub ik_position_error: f64,
-    /// Steps taken in this episode.
-    pub elapsed_steps: u32,
     /// The kinematic arm ([`crate::ArmFidelity::Kinematic`]) refused part of this step's motion
     /// because a link would have entered the floor or the platform; always false for the
     /// dynamic arm.
     pub arm_blocked: bool,
+    /// Steps taken in this episode.
+    pub elapsed_steps: u32,
+    /// The task's own entries: its predicates, reward terms and reward inputs.
+    pub task: TaskInfo,
 }
 
 impl StepInfo {
-    /// Every entry, in [`INFO_FIELDS`] order (the info dict's keys).
-    pub fn values(&self) -> [InfoValue; INFO_FIELDS.len()] {
+    /// The common entries, in [`COMMON_INFO_FIELDS`] order.
+    pub fn common_values(&self) -> [InfoValue; COMMON_INFO_FIELDS.len()] {
         use InfoValue::{Bool, Float, Int};
-        let (c, t) = (&self.context, &self.terms);
         [
             Bool(self.is_success),
-            Bool(self.is_grasped),
-            Bool(self.is_lifted),
-            Bool(self.is_placed),
             Bool(self.physics_unstable),
             Float(self.goal_distance),
-            Float(c.reach as f64),
-            Float(c.grasp as f64),
-            Float(c.lift as f64),
-            Float(t.carry as f64),
-            Float(t.place as f64),
-            Float(t.release as f64),
-            Float(c.gripper_opening as f64),
-            Bool(c.cube_released),
-            Bool(c.cube_at_rest),
-            Bool(c.cube_on_platform),
+            Float(self.gripper_opening as f64),
             Float(self.ik_position_error),
             Bool(self.arm_blocked),
             Int(self.elapsed_steps as i64),
         ]
+    }
+
+    /// Every entry with its field: the common ones, then the task's (the info dict).
+    pub fn entries(&self) -> impl Iterator<Item = (&'static InfoField, InfoValue)> + '_ {
+        COMMON_INFO_FIELDS
+            .iter()
+            .zip(self.common_values())
+            .chain(self.task.entries())
+    }
+
+    /// The entry `key`, if the task reports it.
+    pub fn get(&self, key: &str) -> Option<InfoValue> {
+        match COMMON_INFO_FIELDS.iter().position(|f| f.key == key) {
+            Some(i) => Some(self.common_values()[i]),
+            None => self.task.get(key),
+        }
+    }
+
+    /// The flag `key`: false if the task does not report it.
+    pub fn flag(&self, key: &str) -> bool {
+        matches!(self.get(key), Some(InfoValue::Bool(true)))
+    }
+
+    /// The number `key` (a float, or a flag as 0 or 1): 0 if the task does not report it.
+    pub fn number(&self, key: &str) -> f64 {
+        match self.get(key) {
+            Some(InfoValue::Bool(b)) => f64::from(u8::from(b)),
+            Some(InfoValue::Float(x)) => x,
+            Some(InfoValue::Int(n)) => n as f64,
+            None => 0.0,
+        }
+    }
+
+    /// This step's reward-context row for `keys` (the task's `reward_context_keys`), as
+    /// `compute_reward` takes it back.
+    pub fn reward_context(&self, keys: &[&str], out: &mut [f32]) {
+        for (o, key) in out.iter_mut().zip(keys) {
+            *o = self.number(key) as f32;
+        }
     }
 }
 

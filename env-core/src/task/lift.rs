@@ -26,8 +26,19 @@ use super::registry::{TaskDescriptor, TaskSpec};
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
 use crate::physics::{BodyState, Scene, Simulation};
-use crate::task::pick_and_place::PickAndPlace;
-use crate::task::reward::RewardContext;
+use crate::task::observation::InfoField;
+use crate::task::pick_and_place::{term_field, PickAndPlace, IS_GRASPED, IS_LIFTED};
+use crate::task::reward::cube_terms::{CARRY, GRASP, LIFT, REACH};
+
+/// The task's own info entries.
+const INFO_FIELDS: [InfoField; 6] = [
+    IS_GRASPED,
+    IS_LIFTED,
+    term_field(REACH),
+    term_field(GRASP),
+    term_field(LIFT),
+    term_field(CARRY),
+];
 
 /// The `lift` section of the configuration (`{"task": {"name": "lift", ...}}`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -61,6 +72,9 @@ impl TaskSpec for Lift {
         episode_steps: 70,
         has_platform: false,
         summary: "grasp the cube and lift it to a goal above its start",
+        info_fields: &INFO_FIELDS,
+        reward_terms: &[REACH, GRASP, LIFT, CARRY],
+        reward_context_keys: &["reward_reach", "reward_grasp", "reward_lift"],
     };
 
     const LEGACY_KEYS: &'static [(&'static str, &'static str)] = &[
@@ -78,7 +92,7 @@ impl TaskSpec for Lift {
         Self {
             section: section.clone(),
             config: config.clone(),
-            cube_task: PickAndPlace::build(&Default::default(), config),
+            cube_task: PickAndPlace::cube_task(&Default::default(), config, &Self::DESCRIPTOR),
         }
     }
 }
@@ -93,8 +107,8 @@ pub struct Lift {
 }
 
 impl Task for Lift {
-    fn name(&self) -> &'static str {
-        Self::DESCRIPTOR.name
+    fn descriptor(&self) -> &'static TaskDescriptor {
+        &Self::DESCRIPTOR
     }
 
     fn scene(&self, config: &EnvConfig) -> Scene {
@@ -169,7 +183,7 @@ impl Task for Lift {
         &self,
         achieved: &[f32],
         desired: &[f32],
-        contexts: &[RewardContext],
+        contexts: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
         self.cube_task

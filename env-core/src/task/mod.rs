@@ -26,11 +26,13 @@ use rand_chacha::ChaCha8Rng;
 
 pub use config::{ControlMode, EnvConfig, Randomization, Region, RewardType, TaskThresholds};
 pub use env::{env_rng, EnvSnapshot, PandaEnv};
-pub use episode::{EpisodeStart, ObjectStart, ResetOptions, StepInfo, Transition};
+pub use episode::{
+    EpisodeStart, ObjectStart, ResetOptions, StepInfo, TaskInfo, Transition, TASK_INFO_CAPACITY,
+};
 pub use lift::{Lift, LiftConfig};
 pub use observation::{
-    InfoField, InfoType, InfoValue, ObservationLayout, Slot, SlotSpec, INFO_FIELDS,
-    REWARD_CONTEXT_KEYS,
+    info_field, InfoField, InfoType, InfoValue, ObservationLayout, Slot, SlotSpec,
+    COMMON_INFO_FIELDS,
 };
 pub use pick_and_place::{PickAndPlace, PickAndPlaceConfig};
 pub use push::{Push, PushConfig};
@@ -38,7 +40,7 @@ pub use reach::{Reach, ReachConfig};
 pub use registry::{
     make_task, Deprecation, TaskConfig, TaskDescriptor, TaskKind, TaskSpec, LEGACY_KEYS_REMOVED_IN,
 };
-pub use reward::{RewardContext, RewardFunction, RewardTerms, RewardWeights};
+pub use reward::{RewardContext, RewardFunction, RewardTerm, RewardTerms, RewardWeights};
 pub use stack::{Stack, StackConfig};
 
 use crate::error::Result;
@@ -50,20 +52,13 @@ use crate::robot::Robot;
 pub struct Verdict {
     /// The success predicate.
     pub is_success: bool,
-    /// Both fingers squeeze the object with at least the grasp force.
-    pub is_grasped: bool,
-    /// Grasped and touching neither the floor nor the platform.
-    pub is_lifted: bool,
-    /// Released, at rest, on its support and within the threshold.
-    pub is_placed: bool,
     /// Distance from the achieved to the desired goal.
     pub goal_distance: f64,
-    /// Goal-free inputs of the reward.
-    pub context: RewardContext,
-    /// The dense reward's weighted terms.
-    pub terms: RewardTerms,
     /// The reward.
     pub reward: f32,
+    /// The task's own info entries ([`TaskDescriptor::info_fields`]): its predicates, its
+    /// weighted reward terms and its reward's goal-free inputs.
+    pub info: TaskInfo,
 }
 
 /// What a task sees of the world when it judges a step.
@@ -86,8 +81,13 @@ pub struct View<'a> {
 /// that: the goal, the step count, the random stream), so snapshots of the environment are
 /// complete.
 pub trait Task: Send + Sync + std::fmt::Debug {
+    /// The task's static facts ([`TaskSpec::DESCRIPTOR`]).
+    fn descriptor(&self) -> &'static TaskDescriptor;
+
     /// The task's name in configurations (`"pick_and_place"`).
-    fn name(&self) -> &'static str;
+    fn name(&self) -> &'static str {
+        self.descriptor().name
+    }
 
     /// The platform and objects the world must hold.
     fn scene(&self, config: &EnvConfig) -> Scene;
@@ -125,12 +125,13 @@ pub trait Task: Send + Sync + std::fmt::Debug {
     fn evaluate(&self, view: &View<'_>) -> Verdict;
 
     /// The reward of `n` transitions recomputed from goals (`n x goal_dim` each) and reward
-    /// contexts (see [`RewardFunction::compute_batch`]), written into `out`.
+    /// contexts (`n` rows of the values of [`TaskDescriptor::reward_context_keys`], flags as
+    /// 0 or 1; may be empty where the reward does not read them), written into `out`.
     fn compute_rewards(
         &self,
         achieved: &[f32],
         desired: &[f32],
-        contexts: &[RewardContext],
+        contexts: &[f32],
         out: &mut [f32],
     ) -> Result<()>;
 }

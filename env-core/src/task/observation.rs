@@ -252,7 +252,13 @@ pub struct InfoField {
     pub description: &'static str,
 }
 
-const fn field(key: &'static str, dtype: InfoType, description: &'static str) -> InfoField {
+/// An info entry (for the `const` lists of [`COMMON_INFO_FIELDS`] and each task's
+/// [`TaskDescriptor::info_fields`](crate::task::TaskDescriptor::info_fields)).
+pub const fn info_field(
+    key: &'static str,
+    dtype: InfoType,
+    description: &'static str,
+) -> InfoField {
     InfoField {
         key,
         dtype,
@@ -260,111 +266,45 @@ const fn field(key: &'static str, dtype: InfoType, description: &'static str) ->
     }
 }
 
-/// Every key of the step info, in the order [`crate::task::StepInfo::values`] gives them.
-pub const INFO_FIELDS: [InfoField; 19] = [
-    field(
+/// The info entries of every task, in the order [`crate::task::StepInfo::entries`] gives
+/// them; each task's own entries follow
+/// ([`TaskDescriptor::info_fields`](crate::task::TaskDescriptor::info_fields)).
+pub const COMMON_INFO_FIELDS: [InfoField; 7] = [
+    info_field(
         "is_success",
         InfoType::Bool,
         "the task's success predicate holds",
     ),
-    field(
-        "is_grasped",
-        InfoType::Bool,
-        "both fingers squeeze the object with at least the grasp force",
-    ),
-    field(
-        "is_lifted",
-        InfoType::Bool,
-        "grasped and touching neither the floor nor the platform",
-    ),
-    field(
-        "is_placed",
-        InfoType::Bool,
-        "released, at rest, on the platform and within the threshold",
-    ),
-    field(
+    info_field(
         "physics_unstable",
         InfoType::Bool,
         "the physics blew up in this step (the episode is truncated)",
     ),
-    field(
+    info_field(
         "goal_distance",
         InfoType::Float,
         "distance from the achieved to the desired goal (m)",
     ),
-    field(
-        "reward_reach",
-        InfoType::Float,
-        "weighted dense `reach` term",
-    ),
-    field(
-        "reward_grasp",
-        InfoType::Float,
-        "weighted dense `grasp` term",
-    ),
-    field("reward_lift", InfoType::Float, "weighted dense `lift` term"),
-    field(
-        "reward_carry",
-        InfoType::Float,
-        "weighted dense `carry` term",
-    ),
-    field(
-        "reward_place",
-        InfoType::Float,
-        "weighted dense `place` term",
-    ),
-    field(
-        "reward_release",
-        InfoType::Float,
-        "weighted dense `release` term",
-    ),
-    field(
+    info_field(
         "gripper_opening",
         InfoType::Float,
         "gripper opening the last action commanded (0 closed, 1 open)",
     ),
-    field(
-        "cube_released",
-        InfoType::Bool,
-        "no robot link touches the cube",
-    ),
-    field(
-        "cube_at_rest",
-        InfoType::Bool,
-        "the cube moves slower than the rest thresholds",
-    ),
-    field(
-        "cube_on_platform",
-        InfoType::Bool,
-        "the cube touches the platform",
-    ),
-    field(
+    info_field(
         "ik_position_error",
         InfoType::Float,
         "position error (m) the inverse kinematics left (`ee` control)",
     ),
-    field(
+    info_field(
         "arm_blocked",
         InfoType::Bool,
         "the kinematic arm refused part of this step's motion",
     ),
-    field(
+    info_field(
         "elapsed_steps",
         InfoType::Int,
         "steps taken in this episode",
     ),
-];
-
-/// The goal-free inputs of the dense reward that `compute_reward` reads back from infos, in
-/// the order it takes them: [`crate::task::RewardContext`]'s floats, then its flags.
-pub const REWARD_CONTEXT_KEYS: [&str; 7] = [
-    "reward_reach",
-    "reward_grasp",
-    "reward_lift",
-    "gripper_opening",
-    "cube_released",
-    "cube_at_rest",
-    "cube_on_platform",
 ];
 
 /// Checks that every slot of `task`'s layout for the Panda (9 moving joints) appears, with its
@@ -428,16 +368,29 @@ mod tests {
     }
 
     #[test]
-    fn info_keys_are_unique_and_hold_the_reward_context() {
-        for key in REWARD_CONTEXT_KEYS {
-            assert!(INFO_FIELDS.iter().any(|f| f.key == key), "{key}");
-        }
-        for (i, f) in INFO_FIELDS.iter().enumerate() {
-            assert!(
-                INFO_FIELDS[..i].iter().all(|g| g.key != f.key),
-                "{} twice",
-                f.key
-            );
+    fn every_task_s_info_keys_are_unique_and_hold_its_reward_context_and_terms() {
+        for &task in crate::task::TaskKind::ALL {
+            let d = task.descriptor();
+            let fields: Vec<_> = COMMON_INFO_FIELDS.iter().chain(d.info_fields).collect();
+            for (i, f) in fields.iter().enumerate() {
+                assert!(
+                    fields[..i].iter().all(|g| g.key != f.key),
+                    "{task}: {} twice",
+                    f.key
+                );
+            }
+            assert!(d.info_fields.len() <= crate::task::episode::TASK_INFO_CAPACITY);
+            for key in d.reward_context_keys {
+                assert!(fields.iter().any(|f| f.key == *key), "{task}: {key}");
+            }
+            for term in d.reward_terms {
+                let field = fields.iter().find(|f| f.key == term.info_key);
+                assert!(
+                    matches!(field, Some(f) if f.dtype == InfoType::Float),
+                    "{task}: {}",
+                    term.info_key
+                );
+            }
         }
     }
 }

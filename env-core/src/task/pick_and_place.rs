@@ -46,7 +46,95 @@ use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View
 use crate::config::invalid;
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, Scene, Simulation};
-use crate::task::reward::{closeness, RewardContext, RewardFunction};
+use crate::task::episode::TaskInfo;
+use crate::task::observation::{info_field, InfoField, InfoType};
+use crate::task::reward::cube_terms::{CARRY, GRASP, LIFT, PLACE, REACH, RELEASE};
+use crate::task::reward::{
+    closeness, GoalVerdict, RewardContext, RewardFunction, RewardTerm, RewardWeights,
+};
+
+/// `is_grasped`, an info entry of the cube tasks.
+pub(crate) const IS_GRASPED: InfoField = info_field(
+    "is_grasped",
+    InfoType::Bool,
+    "both fingers squeeze the cube with at least the grasp force",
+);
+/// `is_lifted`, an info entry of the cube tasks.
+pub(crate) const IS_LIFTED: InfoField = info_field(
+    "is_lifted",
+    InfoType::Bool,
+    "grasped and touching neither the floor nor the platform",
+);
+/// `is_placed`: the "placed" predicate.
+const IS_PLACED: InfoField = info_field(
+    "is_placed",
+    InfoType::Bool,
+    "released, at rest, on the platform and within the threshold",
+);
+
+/// The info entry reporting a reward term, weighted.
+pub(crate) const fn term_field(term: RewardTerm) -> InfoField {
+    info_field(term.info_key, InfoType::Float, term.description)
+}
+
+/// The task's own info entries.
+const INFO_FIELDS: [InfoField; 12] = [
+    IS_GRASPED,
+    IS_LIFTED,
+    IS_PLACED,
+    term_field(REACH),
+    term_field(GRASP),
+    term_field(LIFT),
+    term_field(CARRY),
+    term_field(PLACE),
+    term_field(RELEASE),
+    info_field(
+        "cube_released",
+        InfoType::Bool,
+        "no robot link touches the cube",
+    ),
+    info_field(
+        "cube_at_rest",
+        InfoType::Bool,
+        "the cube moves slower than the rest thresholds",
+    ),
+    info_field(
+        "cube_on_platform",
+        InfoType::Bool,
+        "the cube touches the platform",
+    ),
+];
+
+/// The cube tasks' info: every field of `fields` from the predicates, the reward context and
+/// the goal verdict (a field no cube task reports is a bug, caught in debug builds).
+pub(crate) fn cube_task_info(
+    fields: &'static [InfoField],
+    is_grasped: bool,
+    is_lifted: bool,
+    context: &RewardContext,
+    goal: &GoalVerdict,
+) -> TaskInfo {
+    let mut info = TaskInfo::new(fields);
+    let t = &goal.terms;
+    for field in fields {
+        match field.key {
+            "is_grasped" => info.set(field.key, is_grasped),
+            "is_lifted" => info.set(field.key, is_lifted),
+            "is_placed" => info.set(field.key, goal.is_placed),
+            "reward_reach" => info.set(field.key, context.reach),
+            "reward_grasp" => info.set(field.key, context.grasp),
+            "reward_lift" => info.set(field.key, context.lift),
+            "reward_carry" => info.set(field.key, t.carry),
+            "reward_place" => info.set(field.key, t.place),
+            "reward_release" => info.set(field.key, t.release),
+            "cube_released" => info.set(field.key, context.cube_released),
+            "cube_at_rest" => info.set(field.key, context.cube_at_rest),
+            "cube_on_platform" => info.set(field.key, context.cube_on_platform),
+            other => debug_assert!(false, "no cube info entry {other:?}"),
+        }
+    }
+    info
+}
 
 /// The task's observation slots, after the robot's.
 const SLOTS: [SlotSpec; 5] = [
@@ -127,6 +215,9 @@ impl TaskSpec for PickAndPlace {
         episode_steps: 70,
         has_platform: true,
         summary: "pick the cube up from the floor and place it on the goal on the platform",
+        info_fields: &INFO_FIELDS,
+        reward_terms: &[REACH, GRASP, LIFT, CARRY, PLACE, RELEASE],
+        reward_context_keys: &RewardContext::KEYS,
     };
 
     const LEGACY_KEYS: &'static [(&'static str, &'static str)] = &[
@@ -152,16 +243,7 @@ impl TaskSpec for PickAndPlace {
     }
 
     fn build(section: &PickAndPlaceConfig, config: &EnvConfig) -> Self {
-        Self {
-            section: section.clone(),
-            config: config.clone(),
-            reward: RewardFunction {
-                reward_type: config.reward_type,
-                success_threshold: config.success_threshold,
-                weights: config.reward_weights,
-            },
-            cube: None,
-        }
+        Self::cube_task(section, config, &Self::DESCRIPTOR)
     }
 }
 
@@ -170,11 +252,33 @@ impl TaskSpec for PickAndPlace {
 pub struct PickAndPlace {
     section: PickAndPlaceConfig,
     config: EnvConfig,
+    descriptor: &'static TaskDescriptor,
     reward: RewardFunction,
     cube: Option<ObjectId>,
 }
 
 impl PickAndPlace {
+    /// The task with the descriptor (info entries, reward terms and context) of `as_task`: a
+    /// cube task that observes and judges as pick-and-place does ([`crate::task::Lift`],
+    /// [`crate::task::Push`]).
+    pub(crate) fn cube_task(
+        section: &PickAndPlaceConfig,
+        config: &EnvConfig,
+        as_task: &'static TaskDescriptor,
+    ) -> Self {
+        Self {
+            section: section.clone(),
+            config: config.clone(),
+            reward: RewardFunction {
+                reward_type: config.reward_type,
+                success_threshold: config.success_threshold,
+                weights: RewardWeights::resolve(as_task.reward_terms, &config.reward_weights),
+            },
+            descriptor: as_task,
+            cube: None,
+        }
+    }
+
     /// The reward function ([`RewardFunction::compute_batch`] is `compute_reward`).
     pub fn reward_function(&self) -> &RewardFunction {
         &self.reward
@@ -188,8 +292,8 @@ impl PickAndPlace {
 }
 
 impl Task for PickAndPlace {
-    fn name(&self) -> &'static str {
-        Self::DESCRIPTOR.name
+    fn descriptor(&self) -> &'static TaskDescriptor {
+        self.descriptor
     }
 
     fn scene(&self, config: &EnvConfig) -> Scene {
@@ -278,7 +382,7 @@ impl Task for PickAndPlace {
         } else {
             0.0
         };
-        let w = &self.config.reward_weights;
+        let w = &self.reward.weights;
         let context = RewardContext {
             reach: w.reach as f32 * closeness(reach_distance),
             grasp: if is_grasped { w.grasp as f32 } else { 0.0 },
@@ -291,15 +395,18 @@ impl Task for PickAndPlace {
         let verdict =
             self.reward
                 .evaluate(&obs[l.achieved_goal()], &obs[l.desired_goal()], &context);
+        let is_lifted = is_grasped && !touch.floor && !touch.platform;
         Verdict {
             is_success: verdict.is_success,
-            is_grasped,
-            is_lifted: is_grasped && !touch.floor && !touch.platform,
-            is_placed: verdict.is_placed,
             goal_distance: verdict.distance,
-            context,
-            terms: verdict.terms,
             reward: verdict.reward,
+            info: cube_task_info(
+                self.descriptor.info_fields,
+                is_grasped,
+                is_lifted,
+                &context,
+                &verdict,
+            ),
         }
     }
 
@@ -307,10 +414,12 @@ impl Task for PickAndPlace {
         &self,
         achieved: &[f32],
         desired: &[f32],
-        contexts: &[RewardContext],
+        contexts: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
-        self.reward.compute_batch(achieved, desired, contexts, out)
+        let keys = self.descriptor.reward_context_keys;
+        self.reward
+            .compute_batch(achieved, desired, keys, contexts, out)
     }
 }
 

@@ -55,8 +55,18 @@ use super::registry::{TaskDescriptor, TaskSpec};
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
 use crate::physics::{BodyState, Scene, Simulation};
-use crate::task::pick_and_place::PickAndPlace;
-use crate::task::reward::RewardContext;
+use crate::task::observation::InfoField;
+use crate::task::pick_and_place::{term_field, PickAndPlace, IS_GRASPED, IS_LIFTED};
+use crate::task::reward::cube_terms::{CARRY, REACH, RELEASE};
+
+/// The task's own info entries.
+const INFO_FIELDS: [InfoField; 5] = [
+    IS_GRASPED,
+    IS_LIFTED,
+    term_field(REACH),
+    term_field(CARRY),
+    term_field(RELEASE),
+];
 
 /// The `push` section of the configuration (`{"task": {"name": "push", ...}}`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -96,6 +106,9 @@ impl TaskSpec for Push {
         episode_steps: 70,
         has_platform: false,
         summary: "push the cube along the floor to a goal on the floor",
+        info_fields: &INFO_FIELDS,
+        reward_terms: &[REACH, CARRY, RELEASE],
+        reward_context_keys: &["reward_reach", "gripper_opening"],
     };
 
     const LEGACY_KEYS: &'static [(&'static str, &'static str)] = &[
@@ -113,7 +126,7 @@ impl TaskSpec for Push {
         Self {
             section: section.clone(),
             config: config.clone(),
-            cube_task: PickAndPlace::build(&Default::default(), config),
+            cube_task: PickAndPlace::cube_task(&Default::default(), config, &Self::DESCRIPTOR),
         }
     }
 }
@@ -128,8 +141,8 @@ pub struct Push {
 }
 
 impl Task for Push {
-    fn name(&self) -> &'static str {
-        Self::DESCRIPTOR.name
+    fn descriptor(&self) -> &'static TaskDescriptor {
+        &Self::DESCRIPTOR
     }
 
     fn scene(&self, config: &EnvConfig) -> Scene {
@@ -195,29 +208,16 @@ impl Task for Push {
     }
 
     fn evaluate(&self, view: &View<'_>) -> Verdict {
-        let mut verdict = self.cube_task.evaluate(view);
-        // Nothing is paid for holding the cube: the reward is judged again without the
-        // grasp and lift inputs (the same function `compute_rewards` applies).
-        verdict.context.grasp = 0.0;
-        verdict.context.lift = 0.0;
-        let l = view.layout;
-        let obs = view.observation;
-        let judged = self.cube_task.reward_function().evaluate(
-            &obs[l.achieved_goal()],
-            &obs[l.desired_goal()],
-            &verdict.context,
-        );
-        verdict.is_placed = judged.is_placed;
-        verdict.terms = judged.terms;
-        verdict.reward = judged.reward;
-        verdict
+        // Pick-and-place's judgement with this task's terms: nothing is paid for holding the
+        // cube (`grasp` and `lift` weigh 0) and there is no platform to place it on.
+        self.cube_task.evaluate(view)
     }
 
     fn compute_rewards(
         &self,
         achieved: &[f32],
         desired: &[f32],
-        contexts: &[RewardContext],
+        contexts: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
         self.cube_task

@@ -22,8 +22,8 @@
 //! `sparse`: -1 until the tool centre point is within `success_threshold` of the goal, then 0.
 //! `dense`: `reward_weights.reach * (1 - tanh(5 d))`, `d` the distance to the goal (so in
 //! `[0, reach]`, 1 at the goal with the default weight). Both depend on the goals alone, so
-//! relabelled goals get exactly the reward the environment would have given. The info's
-//! grasp, lift and cube entries are false or 0.
+//! relabelled goals get exactly the reward the environment would have given. The info's own
+//! entry is `reward_reach` (the dense reward; 0 with the sparse one).
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -35,9 +35,23 @@ use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View
 use crate::error::Result;
 use crate::physics::{BodyState, Scene, Simulation};
 use crate::task::config::RewardType;
+use crate::task::episode::TaskInfo;
+use crate::task::observation::InfoField;
+use crate::task::pick_and_place::term_field;
 use crate::task::reward::{
-    closeness, compute_batch_with, RewardContext, RewardFunction, RewardTerms, GOAL_DIM,
+    closeness, compute_batch_with, RewardFunction, RewardTerm, RewardWeights, GOAL_DIM,
 };
+
+/// The reward's one term.
+const REACH: RewardTerm = RewardTerm {
+    name: "reach",
+    info_key: "reward_reach",
+    default_weight: 1.0,
+    description: "`1 - tanh(5 d)`, `d` = distance from the TCP to the goal",
+};
+
+/// The task's own info entries: its reward term.
+const INFO_FIELDS: [InfoField; 1] = [term_field(REACH)];
 
 /// The `reach` section of the configuration (`{"task": {"name": "reach", ...}}`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -66,6 +80,9 @@ impl TaskSpec for Reach {
         episode_steps: 50,
         has_platform: false,
         summary: "move the tool centre point to a goal in the air",
+        info_fields: &INFO_FIELDS,
+        reward_terms: &[REACH],
+        reward_context_keys: &[],
     };
 
     const LEGACY_KEYS: &'static [(&'static str, &'static str)] =
@@ -83,6 +100,7 @@ impl TaskSpec for Reach {
         Self {
             section: section.clone(),
             config: config.clone(),
+            weight: RewardWeights::resolve(&[REACH], &config.reward_weights).reach,
         }
     }
 }
@@ -92,6 +110,8 @@ impl TaskSpec for Reach {
 pub struct Reach {
     section: ReachConfig,
     config: EnvConfig,
+    /// The `reach` term's weight.
+    weight: f64,
 }
 
 impl Reach {
@@ -107,15 +127,15 @@ impl Reach {
                     -1.0
                 }
             }
-            RewardType::Dense => self.config.reward_weights.reach as f32 * closeness(distance),
+            RewardType::Dense => self.weight as f32 * closeness(distance),
         };
         (distance, success, reward)
     }
 }
 
 impl Task for Reach {
-    fn name(&self) -> &'static str {
-        Self::DESCRIPTOR.name
+    fn descriptor(&self) -> &'static TaskDescriptor {
+        &Self::DESCRIPTOR
     }
 
     fn scene(&self, _config: &EnvConfig) -> Scene {
@@ -169,24 +189,15 @@ impl Task for Reach {
         let obs = view.observation;
         let (distance, is_success, reward) =
             self.reward(&obs[l.achieved_goal()], &obs[l.desired_goal()]);
-        let context = RewardContext {
-            gripper_opening: view.gripper_opening as f32,
-            ..RewardContext::default()
-        };
-        let terms = match self.config.reward_type {
-            RewardType::Sparse => RewardTerms::default(),
-            RewardType::Dense => RewardTerms {
-                reach: reward,
-                ..RewardTerms::default()
-            },
-        };
+        let mut info = TaskInfo::new(&INFO_FIELDS);
+        if self.config.reward_type == RewardType::Dense {
+            info.set("reward_reach", reward);
+        }
         Verdict {
             is_success,
             goal_distance: distance,
-            context,
-            terms,
             reward,
-            ..Verdict::default()
+            info,
         }
     }
 
@@ -194,13 +205,20 @@ impl Task for Reach {
         &self,
         achieved: &[f32],
         desired: &[f32],
-        _contexts: &[RewardContext],
+        _contexts: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
-        // The goals alone decide the reward: the contexts are not read.
-        compute_batch_with(achieved, desired, GOAL_DIM, &[], false, out, |a, d, _| {
-            self.reward(a, d).2
-        })
+        // The goals alone decide the reward: there is no context.
+        compute_batch_with(
+            achieved,
+            desired,
+            GOAL_DIM,
+            &[],
+            0,
+            false,
+            out,
+            |a, d, _| self.reward(a, d).2,
+        )
     }
 }
 

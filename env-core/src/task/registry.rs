@@ -11,12 +11,14 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use super::config::EnvConfig;
+use super::observation::InfoField;
+use super::reward::RewardTerm;
 use super::Task;
 use crate::config::invalid;
 use crate::error::Result;
 
 /// The static facts of a task, the same for every configuration.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TaskDescriptor {
     /// The name in configurations and on the command line (`"pick_and_place"`).
     pub name: &'static str,
@@ -31,6 +33,24 @@ pub struct TaskDescriptor {
     pub has_platform: bool,
     /// One line for tables and `--help`.
     pub summary: &'static str,
+    /// The task's own info entries, after every task's
+    /// ([`COMMON_INFO_FIELDS`](super::observation::COMMON_INFO_FIELDS)): its predicates
+    /// (`is_placed` where the task has a "placed" predicate, which evaluations report), its
+    /// reward terms (`reward_<term>`) and its reward's inputs.
+    pub info_fields: &'static [InfoField],
+    /// The dense reward's terms with their default weights; `reward_weights` overrides them
+    /// by name, and names no other.
+    pub reward_terms: &'static [RewardTerm],
+    /// The info keys `compute_reward` reads back, in the order [`Task::compute_rewards`]
+    /// takes them (empty when the reward depends on the goals alone).
+    pub reward_context_keys: &'static [&'static str],
+}
+
+impl TaskDescriptor {
+    /// Whether the task has a "placed" predicate (an `is_placed` info entry).
+    pub fn has_placed(&self) -> bool {
+        self.info_fields.iter().any(|f| f.key == "is_placed")
+    }
 }
 
 /// The static side of a task: what the registry needs to list, configure and build it.
@@ -387,4 +407,182 @@ pub(crate) fn migrate_legacy_keys(document: &mut serde_json::Value) -> Result<Ve
     }
     map.insert("task".into(), serde_json::Value::Object(section));
     Ok(notes)
+}
+
+/// The weights of the staged cube reward's terms before 0.2, when every task took all six.
+const LEGACY_WEIGHTS: [(&str, f64); 6] = [
+    ("reach", 1.0),
+    ("grasp", 1.0),
+    ("lift", 1.0),
+    ("carry", 2.0),
+    ("place", 5.0),
+    ("release", 0.0),
+];
+
+/// Drops from `document`'s `reward_weights` the terms the task's reward does not have but
+/// every task took before 0.2, when they hold their old default (a dumped configuration),
+/// noting each; any other value is left for validation to refuse (it would do nothing).
+pub(crate) fn migrate_reward_weights(document: &mut serde_json::Value) -> Result<Vec<Deprecation>> {
+    let kind = match document.get("task") {
+        None => TaskKind::default(),
+        Some(serde_json::Value::String(name)) => match TaskKind::from_name(name) {
+            Some(kind) => kind,
+            None => return Ok(Vec::new()),
+        },
+        Some(serde_json::Value::Object(section)) => {
+            match section
+                .get("name")
+                .and_then(|n| n.as_str())
+                .and_then(TaskKind::from_name)
+            {
+                Some(kind) => kind,
+                None => return Ok(Vec::new()),
+            }
+        }
+        Some(_) => return Ok(Vec::new()),
+    };
+    let Some(serde_json::Value::Object(weights)) = document.get_mut("reward_weights") else {
+        return Ok(Vec::new());
+    };
+    let terms = kind.descriptor().reward_terms;
+    let mut notes = Vec::new();
+    for (name, old_default) in LEGACY_WEIGHTS {
+        if terms.iter().any(|t| t.name == name) {
+            continue;
+        }
+        if weights.get(name).and_then(|v| v.as_f64()) == Some(old_default) {
+            weights.remove(name);
+            notes.push(Deprecation {
+                key: format!("reward_weights.{name}"),
+                message: format!(
+                    "reward_weights.{name} is ignored: the {kind} task's reward has no {name:?} \
+                     term (its weight at the old default is accepted until \
+                     {LEGACY_KEYS_REMOVED_IN}, then it is an error)"
+                ),
+            });
+        }
+    }
+    Ok(notes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::Error;
+
+    #[test]
+    fn the_task_section_takes_a_name_or_fields() {
+        let short = EnvConfig::from_json(r#"{"task": "reach"}"#).unwrap();
+        assert_eq!(short.task.kind(), TaskKind::Reach);
+        let long = EnvConfig::from_json(
+            r#"{"task": {"name": "reach", "goal_region": [[0.4, -0.1, 0.1], [0.6, 0.1, 0.3]]}}"#,
+        )
+        .unwrap();
+        assert_ne!(long.task, short.task);
+        let text = serde_json::to_string(&long).unwrap();
+        assert_eq!(EnvConfig::from_json(&text).unwrap(), long);
+        for bad in [
+            r#"{"task": "slide"}"#,
+            r#"{"task": {"goal_region": [[0, 0, 0], [1, 1, 1]]}}"#,
+            r#"{"task": {"name": "reach", "goal_height": [0.1, 0.2]}}"#,
+            r#"{"task": 3}"#,
+        ] {
+            let err = EnvConfig::from_json(bad).unwrap_err();
+            assert!(matches!(err, Error::InvalidConfig { .. }), "{bad}: {err}");
+        }
+        let err = EnvConfig::from_json(r#"{"task": {"name": "reach", "goal_height": 1}}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("goal_height"), "{err}");
+    }
+
+    #[test]
+    fn keys_from_before_0_2_move_into_the_task_section_with_a_note() {
+        let (config, notes) = EnvConfig::from_json_with_notes(
+            r#"{"task": "reach", "reach_goal_region": [[0.4, -0.1, 0.1], [0.6, 0.1, 0.3]]}"#,
+        )
+        .unwrap();
+        let expected = EnvConfig::from_json(
+            r#"{"task": {"name": "reach", "goal_region": [[0.4, -0.1, 0.1], [0.6, 0.1, 0.3]]}}"#,
+        )
+        .unwrap();
+        assert_eq!(config, expected);
+        assert_eq!(notes.len(), 1);
+        assert_eq!(notes[0].key, "reach_goal_region");
+        assert!(notes[0].message.contains("0.3.0"), "{}", notes[0].message);
+        // Without a task: the default one's keys.
+        let (config, notes) =
+            EnvConfig::from_json_with_notes(r#"{"goal_air_probability": 0.5}"#).unwrap();
+        let TaskConfig::PickAndPlace(section) = &config.task else {
+            panic!("{config:?}")
+        };
+        assert_eq!(section.goal_air_probability, 0.5);
+        assert_eq!(notes.len(), 1);
+        // Another task's key at its old default: dropped with a note; otherwise an error.
+        let (config, notes) =
+            EnvConfig::from_json_with_notes(r#"{"task": "push", "lift_height": [0.05, 0.25]}"#)
+                .unwrap();
+        assert_eq!(config, EnvConfig::for_task(TaskKind::Push));
+        assert!(notes[0].message.contains("ignored"), "{}", notes[0].message);
+        let err =
+            EnvConfig::from_json(r#"{"task": "push", "lift_height": [0.1, 0.2]}"#).unwrap_err();
+        assert!(err.to_string().contains("lift_height"), "{err}");
+        // Both spellings at once.
+        let err = EnvConfig::from_json(
+            r#"{"task": {"name": "lift", "goal_height": [0.1, 0.2]}, "lift_height": [0.1, 0.2]}"#,
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("keep one"), "{err}");
+        // The old default document (every key of 0.1.0) still reads, for every task.
+        for task in TaskKind::ALL {
+            let old = format!(
+                r#"{{"task": "{task}", "pick_region": {{"low": [0.4, -0.2], "high": [0.6, 0.0]}},
+                "cube_yaw_range": [-0.25, 0.25],
+                "goal_region": {{"low": [0.42, 0.22], "high": [0.58, 0.38]}},
+                "goal_air_probability": 0.0, "goal_air_height": [0.05, 0.2],
+                "reach_goal_region": [[0.35, -0.25, 0.1], [0.65, 0.25, 0.4]],
+                "lift_height": [0.05, 0.25],
+                "push_goal_region": {{"low": [0.4, 0.05], "high": [0.6, 0.25]}}}}"#
+            );
+            let (config, notes) = EnvConfig::from_json_with_notes(&old).unwrap();
+            assert_eq!(config, EnvConfig::for_task(*task), "{task}");
+            assert_eq!(notes.len(), 8, "{task}");
+        }
+    }
+
+    #[test]
+    fn reward_weights_name_the_task_s_terms() {
+        let reach =
+            EnvConfig::from_json(r#"{"task": "reach", "reward_weights": {"reach": 2}}"#).unwrap();
+        assert_eq!(reach.reward_weights_resolved()["reach"], 2.0);
+        assert_eq!(reach.resolved().reward_weights.len(), 1);
+        let err = EnvConfig::from_json(r#"{"task": "reach", "reward_weights": {"place": 7}}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("reward_weights.place") && err.contains("reach"),
+            "{err}"
+        );
+        let err = EnvConfig::from_json(r#"{"reward_weights": {"carry": -1}}"#).unwrap_err();
+        assert!(err.to_string().contains("reward_weights.carry"), "{err}");
+        // Pick-and-place's full default set, as 0.1 dumped it, for every task: the terms a task
+        // lacks are dropped with a note.
+        let full = r#"{"reach": 1.0, "grasp": 1.0, "lift": 1.0, "carry": 2.0, "place": 5.0,
+            "release": 0.0}"#;
+        for &task in TaskKind::ALL {
+            let text = format!(r#"{{"task": "{task}", "reward_weights": {full}}}"#);
+            let (config, notes) = EnvConfig::from_json_with_notes(&text).unwrap();
+            let terms = task.descriptor().reward_terms.len();
+            assert_eq!(notes.len(), 6 - terms, "{task}");
+            assert_eq!(
+                config.resolved(),
+                EnvConfig::for_task(task).resolved(),
+                "{task}"
+            );
+        }
+        // The resolved configuration reads back as the same environment.
+        let config = EnvConfig::for_task(TaskKind::Stack).resolved();
+        let text = serde_json::to_string(&config).unwrap();
+        assert_eq!(EnvConfig::from_json(&text).unwrap(), config);
+    }
 }

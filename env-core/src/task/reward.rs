@@ -1,11 +1,17 @@
 //! Rewards and the success predicates, as pure functions of the goals and of the goal-free
-//! quantities an environment reports in its info.
+//! quantities an environment reports in its info. Each task declares its dense reward's terms
+//! ([`RewardTerm`], with their default weights) and the info keys its reward reads back
+//! (`reward_context_keys`) in its [`TaskDescriptor`](crate::task::TaskDescriptor); the
+//! configuration's `reward_weights` overrides the weights of the task's terms by name.
+//!
+//! The cube tasks share the staged reward below ([`RewardFunction`], each task using the terms
+//! it declares; a term the task does not declare weighs 0):
 //!
 //! - `sparse`: `-1` while the cube is farther than the success threshold from the goal, `0`
 //!   within it (the convention hindsight experience replay expects).
 //! - `dense`: a staged sum, each term in `[0, weight]`, the weights options
-//!   ([`RewardWeights`], `reward_weights` in the environment's configuration, as Gymnasium's
-//!   MuJoCo v5 environments take theirs):
+//!   (`reward_weights` in the environment's configuration, as Gymnasium's MuJoCo v5
+//!   environments take theirs):
 //!
 //! | term | default weight | value |
 //! |---|---|---|
@@ -31,18 +37,96 @@
 //! `achieved_goal` and `desired_goal`, so relabelled goals (HER) get exactly the reward the
 //! environment would have given.
 
-use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
-use crate::config::non_negative;
 use crate::error::{Error, Result};
 use crate::task::config::RewardType;
 
 /// Size of each goal this reward compares: a position.
 pub const GOAL_DIM: usize = 3;
 
-/// Weights of the dense reward's terms (see the module table); each finite and `>= 0`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+/// One term of a task's dense reward.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RewardTerm {
+    /// Its name in `reward_weights`.
+    pub name: &'static str,
+    /// The info key that reports it, weighted (`reward_<name>`).
+    pub info_key: &'static str,
+    /// Its weight unless `reward_weights` sets one.
+    pub default_weight: f64,
+    /// What it pays for.
+    pub description: &'static str,
+}
+
+/// The weight of every term of `terms`: its default, or what `overrides` (the configuration's
+/// `reward_weights`, already validated against `terms`) sets.
+pub fn resolve_weights(
+    terms: &[RewardTerm],
+    overrides: &BTreeMap<String, f64>,
+) -> BTreeMap<&'static str, f64> {
+    terms
+        .iter()
+        .map(|t| {
+            let weight = overrides.get(t.name).copied().unwrap_or(t.default_weight);
+            (t.name, weight)
+        })
+        .collect()
+}
+
+/// The staged cube reward's terms ([`RewardFunction`], the module table), each with its
+/// default weight. A cube task lists the ones it pays in its descriptor.
+pub mod cube_terms {
+    use super::RewardTerm;
+
+    /// `reach`: the TCP near the cube.
+    pub const REACH: RewardTerm = RewardTerm {
+        name: "reach",
+        info_key: "reward_reach",
+        default_weight: 1.0,
+        description: "`1 - tanh(5 d)`, `d` = distance from the TCP to the cube centre",
+    };
+    /// `grasp`: both fingers squeeze the cube.
+    pub const GRASP: RewardTerm = RewardTerm {
+        name: "grasp",
+        info_key: "reward_grasp",
+        default_weight: 1.0,
+        description: "1 while both fingers squeeze the cube (`is_grasped`)",
+    };
+    /// `lift`: the cube off the floor.
+    pub const LIFT: RewardTerm = RewardTerm {
+        name: "lift",
+        info_key: "reward_lift",
+        default_weight: 1.0,
+        description: "cube height above its floor resting height over the platform's height, \
+                      clipped to [0, 1]",
+    };
+    /// `carry`: the cube near the goal.
+    pub const CARRY: RewardTerm = RewardTerm {
+        name: "carry",
+        info_key: "reward_carry",
+        default_weight: 2.0,
+        description: "`1 - tanh(5 d)`, `d` = distance from the cube to the goal",
+    };
+    /// `place`: the cube placed.
+    pub const PLACE: RewardTerm = RewardTerm {
+        name: "place",
+        info_key: "reward_place",
+        default_weight: 5.0,
+        description: "1 once the cube is placed: released, at rest, on the platform, within \
+                      the threshold",
+    };
+    /// `release`: opening the hand with the cube at the goal (off by default).
+    pub const RELEASE: RewardTerm = RewardTerm {
+        name: "release",
+        info_key: "reward_release",
+        default_weight: 0.0,
+        description: "the gripper opening the action commands (0 closed, 1 fully open) while \
+                      the cube is within the threshold",
+    };
+}
+
+/// The weights of the staged cube reward's terms; a term the task does not pay weighs 0.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RewardWeights {
     /// Weight of the `reach` term.
     pub reach: f64,
@@ -58,37 +142,24 @@ pub struct RewardWeights {
     pub release: f64,
 }
 
-impl Default for RewardWeights {
-    fn default() -> Self {
-        Self {
-            reach: 1.0,
-            grasp: 1.0,
-            lift: 1.0,
-            carry: 2.0,
-            place: 5.0,
-            release: 0.0,
-        }
-    }
-}
-
 impl RewardWeights {
-    /// Checks that every weight is finite and `>= 0`.
-    pub fn validate(&self) -> Result<()> {
-        for (name, value) in [
-            ("reward_weights.reach", self.reach),
-            ("reward_weights.grasp", self.grasp),
-            ("reward_weights.lift", self.lift),
-            ("reward_weights.carry", self.carry),
-            ("reward_weights.place", self.place),
-            ("reward_weights.release", self.release),
-        ] {
-            non_negative(name, value)?;
+    /// The weights of a task paying `terms`, with the configuration's `overrides`.
+    pub fn resolve(terms: &[RewardTerm], overrides: &BTreeMap<String, f64>) -> Self {
+        let w = resolve_weights(terms, overrides);
+        let get = |name: &str| w.get(name).copied().unwrap_or(0.0);
+        Self {
+            reach: get("reach"),
+            grasp: get("grasp"),
+            lift: get("lift"),
+            carry: get("carry"),
+            place: get("place"),
+            release: get("release"),
         }
-        Ok(())
     }
 }
 
-/// The goal-free inputs of the reward, as reported in the step info.
+/// The goal-free inputs of the staged cube reward, as the cube tasks report them in the step
+/// info (under the keys of [`RewardContext::KEYS`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RewardContext {
     /// The weighted `reach` term.
@@ -125,6 +196,38 @@ pub struct RewardTerms {
     pub release: f32,
 }
 
+impl RewardContext {
+    /// The info key of each field.
+    pub const KEYS: [&'static str; 7] = [
+        "reward_reach",
+        "reward_grasp",
+        "reward_lift",
+        "gripper_opening",
+        "cube_released",
+        "cube_at_rest",
+        "cube_on_platform",
+    ];
+
+    /// The context of one transition from a row of reward-context values laid out as `keys`
+    /// (flags as 0 or 1); fields `keys` lacks keep their default (0, false).
+    pub fn from_row(keys: &[&str], row: &[f32]) -> Self {
+        let mut c = Self::default();
+        for (key, &v) in keys.iter().zip(row) {
+            match *key {
+                "reward_reach" => c.reach = v,
+                "reward_grasp" => c.grasp = v,
+                "reward_lift" => c.lift = v,
+                "gripper_opening" => c.gripper_opening = v,
+                "cube_released" => c.cube_released = v != 0.0,
+                "cube_at_rest" => c.cube_at_rest = v != 0.0,
+                "cube_on_platform" => c.cube_on_platform = v != 0.0,
+                _ => {}
+            }
+        }
+        c
+    }
+}
+
 impl RewardTerms {
     /// The dense reward: the terms summed in a fixed order (`release` last, so with its
     /// default weight of 0 the sum is bit for bit the five-term sum).
@@ -149,35 +252,52 @@ pub struct GoalVerdict {
 }
 
 /// A batched reward: checks the arguments ([`check_batch`]), then writes `reward(achieved,
-/// desired, context)` of each of the `n` transitions into `out` (the default context when
-/// `contexts` is empty).
+/// desired, context row)` of each of the `n` transitions into `out`. `contexts` holds
+/// `n x context_len` reward-context values (the task's `reward_context_keys`, flags as 0 or
+/// 1), or nothing, when every row reads as zeros.
+#[allow(clippy::too_many_arguments)]
 pub fn compute_batch_with(
     achieved: &[f32],
     desired: &[f32],
     goal_dim: usize,
-    contexts: &[RewardContext],
+    contexts: &[f32],
+    context_len: usize,
     needs_context: bool,
     out: &mut [f32],
-    reward: impl Fn(&[f32], &[f32], &RewardContext) -> f32,
+    reward: impl Fn(&[f32], &[f32], &[f32]) -> f32,
 ) -> Result<()> {
-    check_batch(achieved, desired, goal_dim, contexts, needs_context, out)?;
-    let empty = RewardContext::default();
+    check_batch(
+        achieved,
+        desired,
+        goal_dim,
+        contexts,
+        context_len,
+        needs_context,
+        out,
+    )?;
+    let zeros = vec![0.0f32; if contexts.is_empty() { context_len } else { 0 }];
     for (i, r) in out.iter_mut().enumerate() {
         let span = i * goal_dim..(i + 1) * goal_dim;
-        let context = contexts.get(i).unwrap_or(&empty);
-        *r = reward(&achieved[span.clone()], &desired[span], context);
+        let row = if contexts.is_empty() {
+            &zeros[..]
+        } else {
+            &contexts[i * context_len..(i + 1) * context_len]
+        };
+        *r = reward(&achieved[span.clone()], &desired[span], row);
     }
     Ok(())
 }
 
 /// Checks the arguments of a batched reward for goals of `goal_dim` entries: `achieved` and
 /// `desired` hold `n x goal_dim` finite values, `out` has room for `n` rewards and `contexts`
-/// holds one entry per transition (or none, unless `needs_context`). Returns `n`.
+/// holds `n x context_len` finite values (or none, unless `needs_context` and there is a
+/// context to give). Returns `n`.
 pub fn check_batch(
     achieved: &[f32],
     desired: &[f32],
     goal_dim: usize,
-    contexts: &[RewardContext],
+    contexts: &[f32],
+    context_len: usize,
     needs_context: bool,
     out: &[f32],
 ) -> Result<usize> {
@@ -192,8 +312,14 @@ pub fn check_batch(
     let desired_what = format!("desired_goal (n x {goal_dim})");
     crate::error::ensure_len(&desired_what, achieved.len(), desired.len())?;
     crate::error::ensure_len("reward output", n, out.len())?;
-    if needs_context || !contexts.is_empty() {
-        crate::error::ensure_len("info entries", n, contexts.len())?;
+    if (needs_context && context_len > 0) || !contexts.is_empty() {
+        crate::error::ensure_len("info entries", n * context_len, contexts.len())?;
+    }
+    if let Some(i) = contexts.iter().position(|v| !v.is_finite()) {
+        return Err(Error::NonFinite {
+            what: format!("info[{}] reward context", i / context_len.max(1)),
+            value: contexts[i] as f64,
+        });
     }
     for (name, values) in [("achieved_goal", achieved), ("desired_goal", desired)] {
         if let Some((i, &v)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
@@ -283,13 +409,14 @@ impl RewardFunction {
     }
 
     /// Batched reward for `n` transitions: `achieved` and `desired` hold `n x 3` positions,
-    /// `contexts` one entry per transition (may be empty for the sparse reward, which does not
-    /// read it). Writes `n` rewards into `out`.
+    /// `contexts` `n` rows of the values of `keys` (may be empty for the sparse reward, which
+    /// does not read them). Writes `n` rewards into `out`.
     pub fn compute_batch(
         &self,
         achieved: &[f32],
         desired: &[f32],
-        contexts: &[RewardContext],
+        keys: &[&str],
+        contexts: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
         let needs_context = self.reward_type == RewardType::Dense;
@@ -298,9 +425,13 @@ impl RewardFunction {
             desired,
             GOAL_DIM,
             contexts,
+            keys.len(),
             needs_context,
             out,
-            |a, d, c| self.evaluate(a, d, c).reward,
+            |a, d, row| {
+                self.evaluate(a, d, &RewardContext::from_row(keys, row))
+                    .reward
+            },
         )
     }
 }
@@ -321,12 +452,33 @@ mod tests {
         }
     }
 
+    fn pick_and_place_weights() -> RewardWeights {
+        use cube_terms::*;
+        RewardWeights::resolve(
+            &[REACH, GRASP, LIFT, CARRY, PLACE, RELEASE],
+            &BTreeMap::new(),
+        )
+    }
+
     fn dense() -> RewardFunction {
         RewardFunction {
             reward_type: RewardType::Dense,
             success_threshold: 0.05,
-            weights: RewardWeights::default(),
+            weights: pick_and_place_weights(),
         }
+    }
+
+    fn row(c: &RewardContext) -> [f32; 7] {
+        let flag = |b: bool| if b { 1.0 } else { 0.0 };
+        [
+            c.reach,
+            c.grasp,
+            c.lift,
+            c.gripper_opening,
+            flag(c.cube_released),
+            flag(c.cube_at_rest),
+            flag(c.cube_on_platform),
+        ]
     }
 
     #[test]
@@ -373,15 +525,17 @@ mod tests {
         let f = RewardFunction {
             weights: RewardWeights {
                 release: 0.5,
-                ..RewardWeights::default()
+                ..pick_and_place_weights()
             },
             ..dense()
         };
         let achieved = [0.5, 0.3, 0.125, 0.1, 0.1, 0.025];
         let desired = [0.5, 0.31, 0.125, 0.5, 0.3, 0.125];
         let contexts = [placed_context(), RewardContext::default()];
+        let rows: Vec<f32> = contexts.iter().flat_map(row).collect();
+        let keys = RewardContext::KEYS;
         let mut out = [0.0; 2];
-        f.compute_batch(&achieved, &desired, &contexts, &mut out)
+        f.compute_batch(&achieved, &desired, &keys, &rows, &mut out)
             .unwrap();
         for i in 0..2 {
             let single = f.evaluate(
@@ -392,16 +546,26 @@ mod tests {
             assert_eq!(out[i].to_bits(), single.reward.to_bits());
         }
         assert!(matches!(
-            f.compute_batch(&achieved[..4], &desired[..4], &contexts, &mut out),
+            f.compute_batch(&achieved[..4], &desired[..4], &keys, &rows, &mut out),
             Err(Error::WrongLength { .. })
         ));
         assert!(matches!(
-            f.compute_batch(&achieved, &desired, &[], &mut out),
+            f.compute_batch(&achieved, &desired, &keys, &[], &mut out),
+            Err(Error::WrongLength { .. })
+        ));
+        assert!(matches!(
+            f.compute_batch(&achieved, &desired, &keys, &rows[..13], &mut out),
             Err(Error::WrongLength { .. })
         ));
         let nan = [f32::NAN, 0.0, 0.0, 0.0, 0.0, 0.0];
         assert!(matches!(
-            f.compute_batch(&nan, &desired, &contexts, &mut out),
+            f.compute_batch(&nan, &desired, &keys, &rows, &mut out),
+            Err(Error::NonFinite { .. })
+        ));
+        let mut bad_rows = rows.clone();
+        bad_rows[3] = f32::INFINITY;
+        assert!(matches!(
+            f.compute_batch(&achieved, &desired, &keys, &bad_rows, &mut out),
             Err(Error::NonFinite { .. })
         ));
     }
@@ -421,7 +585,7 @@ mod tests {
                 carry: 3.0,
                 place: 7.0,
                 release: 2.0,
-                ..RewardWeights::default()
+                ..pick_and_place_weights()
             },
             ..dense()
         };
@@ -444,20 +608,5 @@ mod tests {
         let mut lifted = held_on_goal;
         lifted.cube_on_platform = false;
         assert_eq!(weighted.evaluate(&goal, &goal, &lifted).terms.release, 0.5);
-    }
-
-    #[test]
-    fn weights_must_be_finite_and_non_negative() {
-        assert!(RewardWeights::default().validate().is_ok());
-        for bad in [-1.0, f64::NAN, f64::INFINITY] {
-            let w = RewardWeights {
-                release: bad,
-                ..RewardWeights::default()
-            };
-            assert!(
-                matches!(w.validate(), Err(Error::InvalidConfig { .. })),
-                "{bad}"
-            );
-        }
     }
 }

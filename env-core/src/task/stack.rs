@@ -56,10 +56,54 @@ use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, ObjectSpec, ObjectTouch, Scene, Simulation};
 use crate::task::config::RewardType;
-use crate::task::pick_and_place::{norm, write_cube_slots};
-use crate::task::reward::{
-    closeness, compute_batch_with, RewardContext, RewardFunction, RewardTerms,
+use crate::task::observation::{info_field, InfoField, InfoType};
+use crate::task::pick_and_place::{
+    cube_task_info, norm, term_field, write_cube_slots, IS_GRASPED, IS_LIFTED,
 };
+use crate::task::reward::cube_terms::{CARRY, GRASP, PLACE, REACH};
+use crate::task::reward::{
+    closeness, compute_batch_with, GoalVerdict, RewardContext, RewardFunction, RewardTerms,
+    RewardWeights,
+};
+
+/// The task's own info entries.
+const INFO_FIELDS: [InfoField; 10] = [
+    IS_GRASPED,
+    IS_LIFTED,
+    info_field(
+        "is_placed",
+        InfoType::Bool,
+        "both cubes within the threshold, released, at rest and stacked on the platform",
+    ),
+    term_field(REACH),
+    term_field(GRASP),
+    term_field(CARRY),
+    term_field(PLACE),
+    info_field(
+        "cube_released",
+        InfoType::Bool,
+        "no robot link touches either cube",
+    ),
+    info_field(
+        "cube_at_rest",
+        InfoType::Bool,
+        "both cubes move slower than the rest thresholds",
+    ),
+    info_field(
+        "cube_on_platform",
+        InfoType::Bool,
+        "cube1 touches the platform and cube2 touches cube1",
+    ),
+];
+
+/// The reward's inputs that `compute_reward` reads back.
+const CONTEXT_KEYS: [&str; 5] = [
+    "reward_reach",
+    "reward_grasp",
+    "cube_released",
+    "cube_at_rest",
+    "cube_on_platform",
+];
 
 /// The task's observation slots, after the robot's: five per cube.
 const SLOTS: [SlotSpec; 10] = [
@@ -146,6 +190,9 @@ impl TaskSpec for Stack {
         episode_steps: 150,
         has_platform: true,
         summary: "stack two cubes on the goal on the platform",
+        info_fields: &INFO_FIELDS,
+        reward_terms: &[REACH, GRASP, CARRY, PLACE],
+        reward_context_keys: &CONTEXT_KEYS,
     };
 
     const LEGACY_KEYS: &'static [(&'static str, &'static str)] = &[
@@ -164,6 +211,7 @@ impl TaskSpec for Stack {
         Self {
             section: section.clone(),
             config: config.clone(),
+            weights: RewardWeights::resolve(Self::DESCRIPTOR.reward_terms, &config.reward_weights),
             cubes: None,
         }
     }
@@ -174,6 +222,7 @@ impl TaskSpec for Stack {
 pub struct Stack {
     section: StackConfig,
     config: EnvConfig,
+    weights: RewardWeights,
     cubes: Option<[ObjectId; 2]>,
 }
 
@@ -185,7 +234,7 @@ impl Stack {
     }
 
     /// Distances of the two cubes to their goals, success and the reward for one transition.
-    fn judge(&self, achieved: &[f32], desired: &[f32], context: &RewardContext) -> Judgement {
+    fn judge(&self, achieved: &[f32], desired: &[f32], context: &RewardContext) -> GoalVerdict {
         let d = [
             RewardFunction::distance(&achieved[..3], &desired[..3]),
             RewardFunction::distance(&achieved[3..], &desired[3..]),
@@ -194,7 +243,7 @@ impl Stack {
         let is_success = d[0] < threshold && d[1] < threshold;
         let is_placed =
             is_success && context.cube_released && context.cube_at_rest && context.cube_on_platform;
-        let w = &self.config.reward_weights;
+        let w = &self.weights;
         let (reward, terms) = match self.config.reward_type {
             RewardType::Sparse => (if is_success { 0.0 } else { -1.0 }, RewardTerms::default()),
             RewardType::Dense => {
@@ -209,7 +258,7 @@ impl Stack {
                 (terms.total(), terms)
             }
         };
-        Judgement {
+        GoalVerdict {
             distance: d[0].max(d[1]),
             is_success,
             is_placed,
@@ -219,18 +268,9 @@ impl Stack {
     }
 }
 
-/// What [`Stack::judge`] finds.
-struct Judgement {
-    distance: f64,
-    is_success: bool,
-    is_placed: bool,
-    reward: f32,
-    terms: RewardTerms,
-}
-
 impl Task for Stack {
-    fn name(&self) -> &'static str {
-        Self::DESCRIPTOR.name
+    fn descriptor(&self) -> &'static TaskDescriptor {
+        &Self::DESCRIPTOR
     }
 
     fn scene(&self, config: &EnvConfig) -> Scene {
@@ -355,7 +395,7 @@ impl Task for Stack {
         let first_done =
             RewardFunction::distance(&achieved[..3], &desired[..3]) < self.config.success_threshold;
         let reach_distance = norm(slot(usize::from(first_done), RELATIVE_POSITION));
-        let w = &self.config.reward_weights;
+        let w = &self.weights;
         let context = RewardContext {
             reach: w.reach as f32 * closeness(reach_distance),
             grasp: if is_grasped { w.grasp as f32 } else { 0.0 },
@@ -368,13 +408,9 @@ impl Task for Stack {
         let judgement = self.judge(achieved, desired, &context);
         Verdict {
             is_success: judgement.is_success,
-            is_grasped,
-            is_lifted,
-            is_placed: judgement.is_placed,
             goal_distance: judgement.distance,
-            context,
-            terms: judgement.terms,
             reward: judgement.reward,
+            info: cube_task_info(&INFO_FIELDS, is_grasped, is_lifted, &context, &judgement),
         }
     }
 
@@ -382,7 +418,7 @@ impl Task for Stack {
         &self,
         achieved: &[f32],
         desired: &[f32],
-        contexts: &[RewardContext],
+        contexts: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
         let needs_context = self.config.reward_type == RewardType::Dense;
@@ -391,9 +427,13 @@ impl Task for Stack {
             desired,
             GOAL_DIM,
             contexts,
+            CONTEXT_KEYS.len(),
             needs_context,
             out,
-            |a, d, c| self.judge(a, d, c).reward,
+            |a, d, row| {
+                self.judge(a, d, &RewardContext::from_row(&CONTEXT_KEYS, row))
+                    .reward
+            },
         )
     }
 }

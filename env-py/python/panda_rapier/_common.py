@@ -35,12 +35,11 @@ class Schema:
     #: Every slot of the flat observation: ``name``, ``key`` (the dict entry it belongs to),
     #: ``start``, ``stop``, ``description``.
     slots: tuple[dict[str, Any], ...]
-    #: ``(key, numpy dtype)`` of every info entry.
+    #: ``(key, numpy dtype)`` of every info entry: every task's, then the task's own.
     info: tuple[tuple[str, str], ...]
-    #: Float and flag info keys ``compute_reward`` reads, in the order the native side takes
-    #: them.
-    context_float_keys: tuple[str, ...]
-    context_flag_keys: tuple[str, ...]
+    #: The info keys ``compute_reward`` reads, in the order the native side takes them (the
+    #: task's; empty when its reward depends on the goals alone).
+    context_keys: tuple[str, ...]
 
     @staticmethod
     @functools.lru_cache(maxsize=64)
@@ -48,7 +47,6 @@ class Schema:
         """The schema of the environments ``config_json`` builds (cached)."""
         raw = _native.schema(config_json)
         dtypes = {entry["key"]: entry["dtype"] for entry in raw["info"]}
-        context = tuple(raw["reward_context_keys"])
         return Schema(
             task=str(raw["task"]),
             goal_dim=int(raw["goal_dim"]),
@@ -56,8 +54,7 @@ class Schema:
             action_dim=int(raw["action_dim"]),
             slots=tuple(dict(slot) for slot in raw["observation"]),
             info=tuple(dtypes.items()),
-            context_float_keys=tuple(k for k in context if dtypes[k] != "bool"),
-            context_flag_keys=tuple(k for k in context if dtypes[k] == "bool"),
+            context_keys=tuple(raw["reward_context_keys"]),
         )
 
     @staticmethod
@@ -207,7 +204,7 @@ def compute_reward(
         )
     lead = achieved.shape[:-1]
     n = int(np.prod(lead, dtype=np.int64))
-    context = context_columns(info, n, schema) if dense else None
+    context = context_columns(info, n, schema) if dense and schema.context_keys else None
     rewards = native.compute_reward(
         np.ascontiguousarray(achieved.reshape(n, goal_dim)),
         np.ascontiguousarray(desired.reshape(n, goal_dim)),
@@ -218,20 +215,16 @@ def compute_reward(
     return rewards.reshape(lead)
 
 
-def context_columns(info: Any, n: int, schema: Schema) -> tuple[np.ndarray, ...]:
-    """The dense reward's goal-free inputs for ``n`` transitions, from an info dict (scalars or
-    arrays), or a sequence / object array of info dicts (what ``HerReplayBuffer`` passes)."""
-    keys = schema.context_float_keys + schema.context_flag_keys
-    dtypes = [np.float32] * len(schema.context_float_keys) + [np.bool_] * len(
-        schema.context_flag_keys
-    )
+def context_columns(info: Any, n: int, schema: Schema) -> np.ndarray:
+    """The dense reward's goal-free inputs for ``n`` transitions as an ``(n, k)`` float32 array
+    of the task's context keys (flags as 0 or 1), from an info dict (scalars or arrays), or a
+    sequence / object array of info dicts (what ``HerReplayBuffer`` passes)."""
+    keys = schema.context_keys
     try:
         if isinstance(info, Mapping):
             columns = [
-                np.ascontiguousarray(
-                    np.broadcast_to(np.asarray(info[key], dtype=dtype).reshape(-1), (n,))
-                )
-                for key, dtype in zip(keys, dtypes, strict=True)
+                np.broadcast_to(np.asarray(info[key], dtype=np.float32).reshape(-1), (n,))
+                for key in keys
             ]
         elif isinstance(info, Sequence | np.ndarray):
             infos = np.asarray(info, dtype=object).reshape(-1)
@@ -240,8 +233,8 @@ def context_columns(info: Any, n: int, schema: Schema) -> tuple[np.ndarray, ...]
                     f"info must hold one dict per transition: {n} transitions, {len(infos)} infos"
                 )
             columns = [
-                np.fromiter((entry[key] for entry in infos), dtype=dtype, count=n)
-                for key, dtype in zip(keys, dtypes, strict=True)
+                np.fromiter((entry[key] for entry in infos), dtype=np.float32, count=n)
+                for key in keys
             ]
         else:
             raise InvalidArgumentError(
@@ -256,7 +249,7 @@ def context_columns(info: Any, n: int, schema: Schema) -> tuple[np.ndarray, ...]
         ) from error
     except ValueError as error:
         raise InvalidArgumentError(f"info does not match {n} transitions: {error}") from error
-    return tuple(columns)
+    return np.ascontiguousarray(np.stack(columns, axis=1), dtype=np.float32)
 
 
 class NativeBacked:

@@ -58,7 +58,7 @@ def evaluate_scripted(
 _F32 = npt.NDArray[np.float32]
 _F64 = npt.NDArray[np.float64]
 _Bool = npt.NDArray[np.bool_]
-_Context = tuple[_F32, _F32, _F32, _F32, _Bool, _Bool, _Bool]
+_Context = npt.NDArray[np.float32]
 _Pose = tuple[list[float], list[float]]
 
 @final

@@ -178,7 +178,9 @@ def _vector_case(
         ended = terminated | truncated
         if scripted is not None and ended.any():
             episodes["ended"] += int(ended.sum())
-            episodes["placed"] += int((ended & infos["is_placed"]).sum())
+            # Tasks without a "placed" predicate count no placements.
+            placed = infos.get("is_placed", np.zeros_like(ended))
+            episodes["placed"] += int((ended & placed).sum())
         state["obs"] = obs
 
     return BenchCase(

@@ -201,7 +201,8 @@ def record(
             )
         )
         successes.append(bool(infos[-1]["is_success"]))
-        placements.append(bool(infos[-1]["is_placed"]))
+        # Tasks without a "placed" predicate (no ``is_placed``) place nothing.
+        placements.append(bool(infos[-1].get("is_placed", False)))
         returns.append(sum(rewards))
         steps += len(actions)
         if progress is not None:
@@ -292,7 +293,9 @@ def to_demonstrations(dataset: Any) -> Any:
         index.append(np.full(steps, k, dtype=np.int64))
         seeds.append(int(meta.get("seed", -1)))
         success.append(bool(episode.infos["is_success"][-1]))
-        placed.append(bool(episode.infos["is_placed"][-1]))
+        placed.append(
+            bool(episode.infos["is_placed"][-1]) if "is_placed" in episode.infos else False
+        )
     return Demonstrations(
         config=config,
         observations=np.concatenate(rows).astype(np.float32),

@@ -17,7 +17,7 @@ from typing import Any
 
 from .errors import InvalidArgumentError
 from .model_file import read_run_info
-from .registration import TASK_NAMES, task_id, variant
+from .registration import TASK_NAMES, TASKS, task_id, variant
 
 __all__ = ["models_table", "plot_curves", "run_label"]
 
@@ -209,7 +209,7 @@ def models_table(
                      f"{wall_time / 60:.1f}", summary)
                 )  # fmt: skip
                 commands.append(_reproduce(model, run, source))
-            places = any(summary["placed_rate"] > 0 for *_, summary in rows[:2])
+            places = next(bool(t["has_placed"]) for t in TASKS if t["name"] == task)
             sections.append(
                 f"### {TASK_NAMES[task]}, {'joint' if mode == 'joints' else 'end-effector'} "
                 f"control (`{base_id.split('/')[-1]}`)\n\n"
