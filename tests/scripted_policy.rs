@@ -27,7 +27,7 @@ fn places_the_cube_in_at_least_98_5_percent_of_1000_seeded_episodes() {
             "{}: placed {:.1} %, mean {:.1} steps, failed {:?}",
             mode.as_str(),
             100.0 * report.placed_rate(),
-            report.mean_steps_to_placed(),
+            report.summary().mean_steps_to_placed.unwrap_or(f64::NAN),
             report.failed_episodes()
         );
         assert_eq!(report.episodes.len(), 1000);
@@ -52,7 +52,7 @@ fn places_the_cube_with_the_kinematic_arm_too() {
             "kinematic {}: placed {:.1} %, mean {:.1} steps, failed {:?}",
             mode.as_str(),
             100.0 * report.placed_rate(),
-            report.mean_steps_to_placed(),
+            report.summary().mean_steps_to_placed.unwrap_or(f64::NAN),
             report.failed_episodes()
         );
         assert!(

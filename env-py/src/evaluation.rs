@@ -219,3 +219,58 @@ fn record_dict<'py>(py: Python<'py>, record: &EpisodeRecord) -> PyResult<Bound<'
     dict.set_item("physics_unstable", record.physics_unstable)?;
     Ok(dict)
 }
+
+/// The statistics of `episodes` (dicts keyed as `panda_rapier.evaluation.EpisodeRecord`'s
+/// fields) as a dict of `panda_rapier_policies::EvaluationSummary`'s fields: the one place
+/// they are computed.
+#[pyfunction]
+pub(crate) fn summarize<'py>(
+    py: Python<'py>,
+    episodes: Vec<Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let get = |d: &Bound<'py, PyDict>, key: &str| -> PyResult<Bound<'py, PyAny>> {
+        d.get_item(key)?.ok_or_else(|| {
+            invalid(
+                py,
+                ErrorClass::InvalidArgument,
+                format!("an episode record lacks {key:?}"),
+            )
+        })
+    };
+    let records = episodes
+        .iter()
+        .map(|d| {
+            Ok(EpisodeRecord {
+                seed: get(d, "seed")?.extract()?,
+                env_index: get(d, "env_index")?.extract()?,
+                episode_return: get(d, "episode_return")?.extract()?,
+                length: get(d, "length")?.extract()?,
+                success: get(d, "success")?.extract()?,
+                steps_to_success: get(d, "steps_to_success")?.extract()?,
+                steps_to_placed: get(d, "steps_to_placed")?.extract()?,
+                physics_unstable: get(d, "physics_unstable")?.extract()?,
+            })
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    let s = panda_rapier_policies::evaluation::summarize(&records);
+    let dict = PyDict::new(py);
+    dict.set_item("episodes", s.episodes)?;
+    dict.set_item("success_rate", s.success_rate)?;
+    dict.set_item("success_ci95", [s.success_ci95.0, s.success_ci95.1])?;
+    dict.set_item("placed_rate", s.placed_rate)?;
+    dict.set_item("mean_return", s.mean_return)?;
+    dict.set_item("std_return", s.std_return)?;
+    dict.set_item("mean_length", s.mean_length)?;
+    dict.set_item("mean_steps_to_success", s.mean_steps_to_success)?;
+    dict.set_item("median_steps_to_success", s.median_steps_to_success)?;
+    dict.set_item("mean_steps_to_placed", s.mean_steps_to_placed)?;
+    dict.set_item("physics_unstable_episodes", s.physics_unstable_episodes)?;
+    Ok(dict)
+}
+
+/// The Wilson score interval of `successes` of `n` (95 % for the default `z`).
+#[pyfunction]
+#[pyo3(signature = (successes, n, z = 1.959964))]
+pub(crate) fn wilson_interval(successes: usize, n: usize, z: f64) -> (f64, f64) {
+    panda_rapier_policies::evaluation::wilson_interval(successes, n, z)
+}

@@ -160,6 +160,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tasks, m)?)?;
     m.add_function(wrap_pyfunction!(tutorial_fidelity, m)?)?;
     m.add_function(wrap_pyfunction!(evaluation::evaluate_scripted, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluation::summarize, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluation::wilson_interval, m)?)?;
     m.add_class::<env::NativeEnv>()?;
     m.add_class::<env::NativeSnapshot>()?;
     m.add_class::<vector::NativeVecEnv>()?;

@@ -108,31 +108,110 @@ pub struct EvaluationReport {
     pub idle_env_steps: u64,
 }
 
+/// The headline statistics of a set of episodes: the one place they are computed (the Python
+/// package's `EvaluationReport` reads them through `_native.summarize`).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct EvaluationSummary {
+    /// Episodes summarised.
+    pub episodes: usize,
+    /// Fraction that ended with `is_success`.
+    pub success_rate: f64,
+    /// Its 95 % Wilson score interval.
+    pub success_ci95: (f64, f64),
+    /// Fraction in which `is_placed` held at some step (0 for tasks without it).
+    pub placed_rate: f64,
+    /// Mean return (0 without episodes).
+    pub mean_return: f64,
+    /// Standard deviation of the returns (population, as numpy's default).
+    pub std_return: f64,
+    /// Mean episode length.
+    pub mean_length: f64,
+    /// Mean first step of success, over the episodes that succeeded at some step.
+    pub mean_steps_to_success: Option<f64>,
+    /// Median first step of success, over the same episodes.
+    pub median_steps_to_success: Option<f64>,
+    /// Mean first step of placing, over the episodes where it happened.
+    pub mean_steps_to_placed: Option<f64>,
+    /// Episodes that ended because the physics blew up.
+    pub physics_unstable_episodes: usize,
+}
+
+/// Wilson score interval of a binomial rate: `successes` of `n` (95 % for `z = 1.959964`);
+/// `(0, 1)` for `n = 0`.
+pub fn wilson_interval(successes: usize, n: usize, z: f64) -> (f64, f64) {
+    if n == 0 {
+        return (0.0, 1.0);
+    }
+    let n = n as f64;
+    let p = successes as f64 / n;
+    let denominator = 1.0 + z * z / n;
+    let centre = (p + z * z / (2.0 * n)) / denominator;
+    let half = z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt() / denominator;
+    ((centre - half).max(0.0), (centre + half).min(1.0))
+}
+
+/// The statistics of `episodes` (see [`EvaluationSummary`]).
+pub fn summarize(episodes: &[EpisodeRecord]) -> EvaluationSummary {
+    let n = episodes.len();
+    let mean = |values: &[f64]| -> Option<f64> {
+        (!values.is_empty()).then(|| values.iter().sum::<f64>() / values.len() as f64)
+    };
+    let rate = |f: &dyn Fn(&EpisodeRecord) -> bool| {
+        episodes.iter().filter(|e| f(e)).count() as f64 / n.max(1) as f64
+    };
+    let returns: Vec<f64> = episodes.iter().map(|e| e.episode_return).collect();
+    let mean_return = mean(&returns).unwrap_or(0.0);
+    let variance = mean(
+        &returns
+            .iter()
+            .map(|r| (r - mean_return).powi(2))
+            .collect::<Vec<_>>(),
+    );
+    let lengths: Vec<f64> = episodes.iter().map(|e| f64::from(e.length)).collect();
+    let mut to_success: Vec<f64> = episodes
+        .iter()
+        .filter_map(|e| e.steps_to_success.map(f64::from))
+        .collect();
+    to_success.sort_by(f64::total_cmp);
+    let median = match to_success.len() {
+        0 => None,
+        k if k % 2 == 1 => Some(to_success[k / 2]),
+        k => Some((to_success[k / 2 - 1] + to_success[k / 2]) / 2.0),
+    };
+    let to_placed: Vec<f64> = episodes
+        .iter()
+        .filter_map(|e| e.steps_to_placed.map(f64::from))
+        .collect();
+    let successes = episodes.iter().filter(|e| e.success).count();
+    EvaluationSummary {
+        episodes: n,
+        success_rate: rate(&|e| e.success),
+        success_ci95: wilson_interval(successes, n, 1.959964),
+        placed_rate: rate(&EpisodeRecord::placed),
+        mean_return,
+        std_return: variance.unwrap_or(0.0).sqrt(),
+        mean_length: mean(&lengths).unwrap_or(0.0),
+        mean_steps_to_success: mean(&to_success),
+        median_steps_to_success: median,
+        mean_steps_to_placed: mean(&to_placed),
+        physics_unstable_episodes: episodes.iter().filter(|e| e.physics_unstable).count(),
+    }
+}
+
 impl EvaluationReport {
+    /// The statistics of the episodes.
+    pub fn summary(&self) -> EvaluationSummary {
+        summarize(&self.episodes)
+    }
+
     /// Fraction of episodes in which the cube was placed at some step.
     pub fn placed_rate(&self) -> f64 {
-        self.rate(EpisodeRecord::placed)
+        self.summary().placed_rate
     }
 
     /// Fraction of episodes that ended with `is_success`.
     pub fn success_rate(&self) -> f64 {
-        self.rate(|e| e.success)
-    }
-
-    /// Mean steps until the cube was placed, over the episodes where it was.
-    pub fn mean_steps_to_placed(&self) -> f64 {
-        let steps: Vec<f64> = self
-            .episodes
-            .iter()
-            .filter_map(|e| e.steps_to_placed.map(f64::from))
-            .collect();
-        steps.iter().sum::<f64>() / steps.len().max(1) as f64
-    }
-
-    /// Mean return over the episodes.
-    pub fn mean_return(&self) -> f64 {
-        let total: f64 = self.episodes.iter().map(|e| e.episode_return).sum();
-        total / self.episodes.len().max(1) as f64
+        self.summary().success_rate
     }
 
     /// `(seed, env_index)` of the episodes where the cube was not placed.
@@ -142,10 +221,6 @@ impl EvaluationReport {
             .filter(|e| !e.placed())
             .map(|e| (e.seed, e.env_index))
             .collect()
-    }
-
-    fn rate(&self, f: impl Fn(&EpisodeRecord) -> bool) -> f64 {
-        self.episodes.iter().filter(|e| f(e)).count() as f64 / self.episodes.len().max(1) as f64
     }
 }
 
@@ -433,6 +508,38 @@ pub fn evaluate(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn statistics_of_hand_made_records() {
+        let record = |ret: f64, success: Option<u32>, placed: Option<u32>| EpisodeRecord {
+            episode_return: ret,
+            length: 10,
+            success: success.is_some(),
+            steps_to_success: success,
+            steps_to_placed: placed,
+            ..EpisodeRecord::start(0, 0)
+        };
+        let episodes = [
+            record(1.0, Some(4), None),
+            record(3.0, Some(8), Some(9)),
+            record(5.0, None, None),
+            record(7.0, Some(6), None),
+        ];
+        let s = summarize(&episodes);
+        assert_eq!(s.episodes, 4);
+        assert_eq!(s.success_rate, 0.75);
+        assert_eq!(s.placed_rate, 0.25);
+        assert_eq!(s.mean_return, 4.0);
+        assert_eq!(s.std_return, 5.0f64.sqrt());
+        assert_eq!(s.median_steps_to_success, Some(6.0));
+        assert_eq!(s.mean_steps_to_success, Some(6.0));
+        assert_eq!(s.mean_steps_to_placed, Some(9.0));
+        assert_eq!(summarize(&episodes[..2]).median_steps_to_success, Some(6.0));
+        let empty = summarize(&[]);
+        assert_eq!((empty.success_rate, empty.mean_return), (0.0, 0.0));
+        assert_eq!(empty.success_ci95, (0.0, 1.0));
+        assert_eq!(empty.mean_steps_to_success, None);
+    }
 
     fn config(limit: u32) -> EnvConfig {
         EnvConfig {

@@ -131,3 +131,42 @@ def test_bad_arguments() -> None:
         evaluate(policy, {**CONFIG, "max_episode_steps": None}, 2)
     with pytest.raises(ConfigError, match="max_episode_steps"):
         _native.Evaluation(_common.config_json({**CONFIG, "max_episode_steps": None}), 1, 1)
+
+
+def test_statistics_are_the_rust_evaluators_and_match_numpy() -> None:
+    """One place computes the statistics (the Rust evaluator's ``summarize``); they agree with
+    numpy's definitions: population standard deviation, the median of an even count, the
+    Wilson interval's edge cases."""
+    from panda_rapier.evaluation import EpisodeRecord, EvaluationReport, wilson_interval
+
+    rng = np.random.default_rng(3)
+    episodes = [
+        EpisodeRecord(
+            seed=k,
+            env_index=k % 4,
+            episode_return=float(rng.normal(10, 3)),
+            length=int(rng.integers(20, 70)),
+            success=bool(k % 3),
+            placed=bool(k % 5),
+            steps_to_success=int(rng.integers(5, 20)) if k % 3 else None,
+            steps_to_placed=int(rng.integers(10, 30)) if k % 5 else None,
+            physics_unstable=k == 7,
+        )
+        for k in range(40)
+    ]
+    report = EvaluationReport("p", {}, 0, 4, 1, 0, 1.0, episodes)
+    stats = report.statistics()
+    returns = np.array([e.episode_return for e in episodes])
+    to_success = [e.steps_to_success for e in episodes if e.steps_to_success is not None]
+    assert stats["success_rate"] == pytest.approx(np.mean([e.success for e in episodes]))
+    assert stats["placed_rate"] == pytest.approx(np.mean([e.placed for e in episodes]))
+    assert stats["mean_return"] == pytest.approx(returns.mean(), rel=1e-12)
+    assert stats["std_return"] == pytest.approx(returns.std(), rel=1e-12)
+    assert stats["median_steps_to_success"] == pytest.approx(np.median(to_success))
+    assert stats["physics_unstable_episodes"] == 1
+    assert report.summary()["success_ci95"] == list(report.success_ci95)
+    assert wilson_interval(0, 0) == (0.0, 1.0)
+    low, high = wilson_interval(10, 10)
+    assert high == pytest.approx(1.0) and 0.6 < low < 0.8
+    with pytest.raises(InvalidArgumentError):
+        wilson_interval(3, 2)

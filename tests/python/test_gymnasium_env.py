@@ -331,11 +331,29 @@ def test_kinematic_arm_rejects_torque_control() -> None:
 
 
 def test_names_from_before_tasks_are_the_same_objects() -> None:
-    """Code written against the first release keeps working: the old names are aliases."""
-    from panda_rapier import sb3
+    """Code written against the first release keeps working: the old names are the same
+    objects, each with a FutureWarning naming the new one and the removal version."""
+    from panda_rapier import env as env_module
+    from panda_rapier import sb3, vector
 
-    assert panda_rapier.PickAndPlaceEnv is panda_rapier.PandaEnv
-    assert panda_rapier.PickAndPlaceVectorEnv is panda_rapier.PandaVectorEnv
-    assert sb3.PandaRapierVecEnv is sb3.PandaVecEnv
-    assert panda_rapier.PandaEnv.save_state is panda_rapier.PandaEnv.snapshot
-    assert panda_rapier.PandaEnv.restore_state is panda_rapier.PandaEnv.restore
+    for module, old, new in (
+        (panda_rapier, "PickAndPlaceEnv", panda_rapier.PandaEnv),
+        (panda_rapier, "PickAndPlaceVectorEnv", panda_rapier.PandaVectorEnv),
+        (env_module, "PickAndPlaceEnv", panda_rapier.PandaEnv),
+        (vector, "PickAndPlaceVectorEnv", panda_rapier.PandaVectorEnv),
+        (sb3, "PandaRapierVecEnv", sb3.PandaVecEnv),
+    ):
+        with pytest.warns(FutureWarning, match=f"{old} is renamed .*{new.__name__}.*0.3.0"):
+            assert getattr(module, old) is new
+    with pytest.raises(AttributeError):
+        _ = panda_rapier.NoSuchName
+    env = panda_rapier.PandaEnv()
+    env.reset(seed=1)
+    with pytest.warns(FutureWarning, match="save_state is renamed"):
+        state = env.save_state()
+    before = env.step(np.zeros(4, dtype=np.float32))[0]
+    with pytest.warns(FutureWarning, match="restore_state is renamed"):
+        env.restore_state(state)
+    after = env.step(np.zeros(4, dtype=np.float32))[0]
+    for key in before:
+        np.testing.assert_array_equal(before[key], after[key])

@@ -68,7 +68,8 @@ pub struct EnvSnapshot {
 /// The task's: for pick-and-place `sparse` (default) -1 until the cube is within
 /// `success_threshold` (0.05 m) of the goal, then 0; `dense`: staged terms, see
 /// [`crate::task::reward`]. Both are reproduced exactly by [`PandaEnv::compute_rewards`] from
-/// the goals and the info's [`RewardContext`].
+/// the goals and the info's reward context (the task's
+/// [`reward_context_keys`](crate::task::TaskDescriptor::reward_context_keys)).
 ///
 /// # Starting state
 /// The robot in its start pose ([`Robot::start_configuration`], plus
@@ -90,7 +91,8 @@ pub struct EnvSnapshot {
 /// 99.7 %. 65 is the shortest that reaches 99 % in both modes; 70 leaves a margin.
 ///
 /// # Info
-/// [`StepInfo`], keyed as [`crate::task::INFO_FIELDS`] lists.
+/// [`StepInfo`]: every task's entries ([`crate::task::COMMON_INFO_FIELDS`]), then the task's
+/// own ([`TaskDescriptor::info_fields`](crate::task::TaskDescriptor::info_fields)).
 pub struct PandaEnv {
     config: EnvConfig,
     index: u64,

@@ -1,6 +1,6 @@
 //! The one list of tasks. Adding a task is a file in `task/` whose type implements [`Task`]
 //! and [`TaskSpec`] (its descriptor, its own configuration section with defaults and
-//! validation, how it is built) and one line in the [`tasks!`] invocation below; the
+//! validation, how it is built) and one line in the `tasks!` invocation below; the
 //! [`TaskKind`] enum, the tagged [`TaskConfig`] section of [`EnvConfig`], [`make_task`], the
 //! Python ids and their episode lengths, the docs tables and the contract tests all come from
 //! here.

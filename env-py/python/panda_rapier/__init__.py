@@ -19,8 +19,9 @@ in every EnvRunner) and :mod:`panda_rapier.tuning` (Ray Tune sweeps of the SB3 r
 
 from __future__ import annotations
 
+from . import _common
 from ._native import __version__
-from .env import PandaEnv, PickAndPlaceEnv
+from .env import PandaEnv
 from .errors import (
     AssetError,
     ConfigError,
@@ -34,7 +35,7 @@ from .policy import RandomPolicy, ScriptedPolicy
 from .registration import ENV_IDS, MAX_EPISODE_STEPS, env_config, register_envs
 from .rendering import RENDER_MODES
 from .robot import Robot
-from .vector import PandaVectorEnv, PickAndPlaceVectorEnv
+from .vector import PandaVectorEnv
 
 __all__ = [
     "ENV_IDS",
@@ -48,8 +49,6 @@ __all__ = [
     "PandaEnv",
     "PandaRapierError",
     "PandaVectorEnv",
-    "PickAndPlaceEnv",
-    "PickAndPlaceVectorEnv",
     "RandomPolicy",
     "ResetNeededError",
     "Robot",
@@ -60,3 +59,8 @@ __all__ = [
 ]
 
 register_envs()
+
+#: The names before tasks were added, with a ``FutureWarning`` (removed in 0.3.0).
+__getattr__ = _common.renamed(
+    "panda_rapier", {"PickAndPlaceEnv": PandaEnv, "PickAndPlaceVectorEnv": PandaVectorEnv}
+)

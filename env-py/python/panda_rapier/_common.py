@@ -295,6 +295,30 @@ class NativeBacked:
         return self._schema
 
 
+#: The version that removes the names from before 0.2 (each warns with a ``FutureWarning``).
+OLD_NAMES_REMOVED_IN = "0.3.0"
+
+
+def renamed(module: str, old_names: Mapping[str, Any]) -> Any:
+    """A module ``__getattr__`` (PEP 562) that serves ``old_names`` (old name -> object) with a
+    ``FutureWarning`` naming the new one."""
+    import warnings
+
+    def __getattr__(name: str) -> Any:
+        if name in old_names:
+            new = old_names[name]
+            warnings.warn(
+                f"{module}.{name} is renamed {module}.{new.__name__} and will be removed in "
+                f"{OLD_NAMES_REMOVED_IN}",
+                FutureWarning,
+                stacklevel=2,
+            )
+            return new
+        raise AttributeError(f"module {module!r} has no attribute {name!r}")
+
+    return __getattr__
+
+
 class Closed:
     """Stands in for the native object after ``close()``: any use raises."""
 

@@ -219,9 +219,15 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
         configuration); stepping on continues bit-identically."""
         self._native.restore(snapshot)
 
-    #: The names before 0.2: :meth:`snapshot` and :meth:`restore`.
-    save_state = snapshot
-    restore_state = restore
+    def save_state(self) -> _native.EnvSnapshot:
+        """The name before 0.2 of :meth:`snapshot` (removed in 0.3.0)."""
+        _warn_renamed("PandaEnv.save_state", "PandaEnv.snapshot")
+        return self.snapshot()
+
+    def restore_state(self, snapshot: _native.EnvSnapshot) -> None:
+        """The name before 0.2 of :meth:`restore` (removed in 0.3.0)."""
+        _warn_renamed("PandaEnv.restore_state", "PandaEnv.restore")
+        self.restore(snapshot)
 
     # Gymnasium < 1.3 (ray[rllib] pins 1.2.2) types Env.render with an unbound TypeVar.
     def render(self) -> np.ndarray | None:  # type: ignore[override, unused-ignore]
@@ -241,5 +247,15 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
         self._native = _common.Closed("environment")
 
 
-#: The name before tasks were added; the same class.
-PickAndPlaceEnv = PandaEnv
+def _warn_renamed(old: str, new: str) -> None:
+    import warnings
+
+    warnings.warn(
+        f"{old} is renamed {new} and will be removed in {_common.OLD_NAMES_REMOVED_IN}",
+        FutureWarning,
+        stacklevel=3,
+    )
+
+
+#: The name before tasks were added (``PickAndPlaceEnv``), with a ``FutureWarning``.
+__getattr__ = _common.renamed("panda_rapier.env", {"PickAndPlaceEnv": PandaEnv})

@@ -114,44 +114,50 @@ class EvaluationReport:
     def num_episodes(self) -> int:
         return len(self.episodes)
 
+    def statistics(self) -> dict[str, Any]:
+        """The episodes' statistics, computed where the Rust evaluator computes them
+        (``panda_rapier_policies::evaluation::summarize``): ``success_rate``,
+        ``success_ci95``, ``placed_rate``, ``mean_return``, ``std_return``, ``mean_length``,
+        ``mean_steps_to_success``, ``median_steps_to_success``, ``mean_steps_to_placed`` and
+        ``physics_unstable_episodes``."""
+        return dict(_native.summarize([asdict(e) for e in self.episodes]))
+
     @property
     def success_rate(self) -> float:
-        return float(np.mean([e.success for e in self.episodes])) if self.episodes else 0.0
+        return float(self.statistics()["success_rate"])
 
     @property
     def success_ci95(self) -> tuple[float, float]:
         """95 % Wilson score interval of the success rate."""
-        return wilson_interval(sum(e.success for e in self.episodes), len(self.episodes))
+        low, high = self.statistics()["success_ci95"]
+        return (float(low), float(high))
 
     @property
     def placed_rate(self) -> float:
-        return float(np.mean([e.placed for e in self.episodes])) if self.episodes else 0.0
+        return float(self.statistics()["placed_rate"])
 
     @property
     def mean_return(self) -> float:
-        return float(np.mean([e.episode_return for e in self.episodes]))
+        return float(self.statistics()["mean_return"])
 
     @property
     def std_return(self) -> float:
-        return float(np.std([e.episode_return for e in self.episodes]))
+        return float(self.statistics()["std_return"])
 
     @property
     def mean_length(self) -> float:
-        return float(np.mean([e.length for e in self.episodes]))
-
-    def _steps_to_success(self) -> list[int]:
-        return [e.steps_to_success for e in self.episodes if e.steps_to_success is not None]
+        return float(self.statistics()["mean_length"])
 
     @property
     def mean_steps_to_success(self) -> float | None:
         """Mean first step of success, over the episodes that succeeded at some step."""
-        steps = self._steps_to_success()
-        return float(np.mean(steps)) if steps else None
+        value = self.statistics()["mean_steps_to_success"]
+        return None if value is None else float(value)
 
     @property
     def median_steps_to_success(self) -> float | None:
-        steps = self._steps_to_success()
-        return float(np.median(steps)) if steps else None
+        value = self.statistics()["median_steps_to_success"]
+        return None if value is None else float(value)
 
     @property
     def env_steps_per_s(self) -> float:
@@ -159,6 +165,7 @@ class EvaluationReport:
 
     def summary(self) -> dict[str, Any]:
         """The headline figures."""
+        stats = self.statistics()
         return {
             "policy": self.policy,
             "episodes": self.num_episodes,
@@ -169,15 +176,15 @@ class EvaluationReport:
             "control_mode": self.config.get("control_mode"),
             "reward_type": self.config.get("reward_type"),
             "max_episode_steps": self.config.get("max_episode_steps"),
-            "success_rate": self.success_rate,
-            "success_ci95": list(self.success_ci95),
-            "placed_rate": self.placed_rate,
-            "mean_return": self.mean_return,
-            "std_return": self.std_return,
-            "mean_length": self.mean_length,
-            "mean_steps_to_success": self.mean_steps_to_success,
-            "median_steps_to_success": self.median_steps_to_success,
-            "physics_unstable_episodes": sum(e.physics_unstable for e in self.episodes),
+            "success_rate": stats["success_rate"],
+            "success_ci95": list(stats["success_ci95"]),
+            "placed_rate": stats["placed_rate"],
+            "mean_return": stats["mean_return"],
+            "std_return": stats["std_return"],
+            "mean_length": stats["mean_length"],
+            "mean_steps_to_success": stats["mean_steps_to_success"],
+            "median_steps_to_success": stats["median_steps_to_success"],
+            "physics_unstable_episodes": stats["physics_unstable_episodes"],
             "env_steps": self.env_steps,
             "idle_env_steps": self.idle_env_steps,
             "wall_time_s": self.wall_time_s,
@@ -204,14 +211,12 @@ class EvaluationReport:
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
-    """Wilson score interval of a binomial rate (95 % for the default ``z``)."""
-    if n == 0:
-        return (0.0, 1.0)
-    p = successes / n
-    denominator = 1 + z * z / n
-    centre = (p + z * z / (2 * n)) / denominator
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denominator
-    return (max(0.0, centre - half), min(1.0, centre + half))
+    """Wilson score interval of a binomial rate (95 % for the default ``z``), as the Rust
+    evaluator computes it."""
+    if successes < 0 or n < 0 or successes > n:
+        raise InvalidArgumentError(f"need 0 <= successes <= n, got {successes} of {n}")
+    low, high = _native.wilson_interval(int(successes), int(n), float(z))
+    return (float(low), float(high))
 
 
 def _algorithm_of(path: Path) -> str | None:

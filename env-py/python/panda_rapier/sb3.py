@@ -287,5 +287,5 @@ def make_vec_env(
     return venv
 
 
-#: The name before tasks were added; the same class.
-PandaRapierVecEnv = PandaVecEnv
+#: The name before tasks were added (``PandaRapierVecEnv``), with a ``FutureWarning``.
+__getattr__ = _common.renamed("panda_rapier.sb3", {"PandaRapierVecEnv": PandaVecEnv})

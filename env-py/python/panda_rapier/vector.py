@@ -234,5 +234,5 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
         self._native = _common.Closed("vector environment")
 
 
-#: The name before tasks were added; the same class.
-PickAndPlaceVectorEnv = PandaVectorEnv
+#: The name before tasks were added (``PickAndPlaceVectorEnv``), with a ``FutureWarning``.
+__getattr__ = _common.renamed("panda_rapier.vector", {"PickAndPlaceVectorEnv": PandaVectorEnv})
