@@ -37,8 +37,9 @@ pub use physics::{
     ObjectTouch, Scene, SimSnapshot, Simulation, VisualPrimitive, VisualShape, VisualTag,
 };
 pub use robot::panda::READY as PANDA_READY;
-pub use robot::{Controller, Gripper, Robot};
+pub use robot::{Gripper, Robot};
 pub use sensor::Sensor;
+pub use task::Controller;
 pub use task::{
     ControlMode, EnvConfig, EnvSnapshot, ObservationLayout, PandaEnv, ResetOptions, RewardType,
     StepInfo, Task, TaskKind, Transition,

@@ -10,7 +10,6 @@ use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use rapier3d_urdf::urdf_rs;
 
 use crate::error::{Error, Result};
-use crate::robot::panda;
 
 /// The kind of a joint, as in the URDF.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -177,7 +176,7 @@ impl RobotModel {
         Self::parse(
             crate::assets::PANDA_URDF,
             Path::new("."),
-            panda::URDF_SOURCE,
+            crate::assets::PANDA_URDF_SOURCE,
         )
     }
 
@@ -371,11 +370,20 @@ impl RobotModel {
             }
         }
 
-        // The Panda's TCP sits between the fingertips; any other robot's at its last link.
-        let tcp = match links.iter().position(|l| l.name == panda::HAND_LINK) {
-            Some(link) => Tcp {
+        // A known convention's TCP (the Panda's sits between the fingertips); any other
+        // robot's at its last link.
+        let known = crate::assets::KNOWN_TCPS
+            .iter()
+            .find_map(|&(name, offset)| {
+                links
+                    .iter()
+                    .position(|l| l.name == name)
+                    .map(|link| (link, offset))
+            });
+        let tcp = match known {
+            Some((link, offset)) => Tcp {
                 link,
-                offset: Isometry3::translation(0.0, 0.0, panda::TCP_OFFSET),
+                offset: Isometry3::translation(0.0, 0.0, offset),
             },
             None => Tcp {
                 link: *topological

@@ -10,7 +10,7 @@ use pyo3::types::PyDict;
 use crate::convert::contiguous;
 use crate::env::parse_config;
 use crate::errors::{detached, invalid, to_py, ErrorClass};
-use crate::render::{camera_sensors, image_rows};
+use crate::sensors::{camera_sensors, image_rows};
 
 /// An evaluation in progress (see `panda_rapier.evaluation.evaluate`).
 #[pyclass(module = "panda_rapier._native", name = "Evaluation")]

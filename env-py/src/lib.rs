@@ -16,6 +16,7 @@ mod errors;
 mod evaluation;
 mod policy;
 mod render;
+mod sensors;
 mod vector;
 
 /// The default environment configuration as JSON (every field filled in).

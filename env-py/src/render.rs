@@ -3,13 +3,13 @@
 //! observations of one `PandaEnv` (a `PandaVecEnv` runs its own, see `set_cameras`).
 
 use numpy::ndarray::Array3;
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods};
-use panda_rapier_core::{PandaEnv, PandaVecEnv, Sensor};
+use numpy::{IntoPyArray, PyArray1, PyArray3};
+use panda_rapier_core::{PandaEnv, Sensor};
 use panda_rapier_render::{Cameras, RenderConfig, Renderer};
 use pyo3::prelude::*;
 
 use crate::env::NativeEnv;
-use crate::errors::{detached, invalid, to_py, ErrorClass};
+use crate::errors::{detached, to_py};
 use crate::evaluation::NativeEvaluation;
 use crate::vector::NativeVecEnv;
 
@@ -141,42 +141,4 @@ impl NativeCameras {
         detached(py, || cameras.observe(env, &mut out))?;
         Ok(PyArray1::from_vec(py, out))
     }
-}
-
-/// One `Cameras` sensor per environment from `cameras_json` (none for `"[]"`).
-pub(crate) fn camera_sensors(
-    py: Python<'_>,
-    cameras_json: &str,
-    num_envs: usize,
-) -> PyResult<Vec<Box<dyn Sensor>>> {
-    if cameras_json.trim() == "[]" {
-        return Ok(Vec::new());
-    }
-    let cameras = Cameras::from_json(cameras_json).map_err(|e| to_py(py, e))?;
-    Ok((0..num_envs)
-        .map(|_| Box::new(cameras.clone()) as Box<dyn Sensor>)
-        .collect())
-}
-
-/// A vector env's sensor bytes (`which`: `"current"` or `"final"` observations),
-/// `num_envs x` bytes per environment.
-pub(crate) fn image_rows<'py>(
-    py: Python<'py>,
-    vec: &PandaVecEnv,
-    which: &str,
-) -> PyResult<Bound<'py, PyArray2<u8>>> {
-    let mut out = vec![0; vec.num_envs() * vec.sensor_len()];
-    let copied = match which {
-        "current" => vec.sensor_data(&mut out),
-        "final" => vec.final_sensor_data(&mut out),
-        other => {
-            return Err(invalid(
-                py,
-                ErrorClass::InvalidArgument,
-                format!("which must be 'current' or 'final', got {other:?}"),
-            ))
-        }
-    };
-    copied.map_err(|e| to_py(py, e))?;
-    PyArray1::from_vec(py, out).reshape([vec.num_envs(), vec.sensor_len()])
 }

@@ -9,7 +9,7 @@ use pyo3::types::PyDict;
 use crate::convert::{compute_reward, contiguous, info_columns, info_dicts, ContextColumns};
 use crate::env::parse_config;
 use crate::errors::{detached, invalid, to_py, ErrorClass};
-use crate::render::{camera_sensors, image_rows};
+use crate::sensors::{camera_sensors, image_rows};
 
 /// N environments stepped in parallel.
 #[pyclass(module = "panda_rapier._native", name = "PandaVecEnv")]

@@ -5,7 +5,6 @@
 //! Python side ask these facts of a [`Robot`], not of a [`crate::Simulation`]); what is specific
 //! to the Franka Panda sits in [`panda`].
 
-pub mod controller;
 pub mod panda;
 
 use nalgebra::{Isometry3, UnitQuaternion};
@@ -14,8 +13,6 @@ use crate::config::{ArmFidelity, SimConfig};
 use crate::error::{Error, Result};
 use crate::kinematics::pointing_down;
 use crate::model::{JointType, RobotModel};
-
-pub use controller::Controller;
 
 /// The gripper: the prismatic joint that drives the fingers and the joints that follow it.
 #[derive(Debug, Clone, PartialEq)]

@@ -5,13 +5,13 @@
 use crate::model::RobotModel;
 
 /// The bundled description ([`crate::assets::PANDA_URDF`]) as error messages name it.
-pub const URDF_SOURCE: &str = "assets/panda/panda.urdf";
+pub const URDF_SOURCE: &str = crate::assets::PANDA_URDF_SOURCE;
 
 /// The hand link, which carries the tool centre point...
-pub const HAND_LINK: &str = "panda_hand";
+pub const HAND_LINK: &str = crate::assets::KNOWN_TCPS[0].0;
 
 /// ...this far (m) along the hand's z axis: the centre between the fingertips.
-pub const TCP_OFFSET: f64 = 0.1034;
+pub const TCP_OFFSET: f64 = crate::assets::KNOWN_TCPS[0].1;
 
 /// The finger joint that drives the gripper (the second finger mimics it).
 pub const FINGER_JOINT: &str = "panda_finger_joint1";

@@ -6,9 +6,9 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::error::{Error, Result};
 use crate::physics::{SimSnapshot, Simulation};
-use crate::robot::controller::{Controller, Plan};
 use crate::robot::Robot;
 use crate::task::config::EnvConfig;
+use crate::task::controller::{Controller, Plan};
 use crate::task::episode::{EpisodeStart, ResetOptions, StepInfo, Transition};
 use crate::task::observation::{
     ObservationLayout, GRIPPER_WIDTH, JOINT_POSITIONS, JOINT_VELOCITIES, TCP_POSITION, TCP_VELOCITY,
@@ -55,7 +55,7 @@ pub struct EnvSnapshot {
 ///
 /// Joint targets are limited by the joints' velocity limits and ramped across the control period
 /// with a velocity feed-forward, so the arm moves at a steady speed
-/// ([`crate::robot::Controller`]). The gripper command is an absolute opening: -1 closes with
+/// ([`crate::task::Controller`]). The gripper command is an absolute opening: -1 closes with
 /// `sim.motors.gripper_force` (a friction grasp), +1 opens fully (0.08 m), values between ask
 /// for a proportional opening.
 ///

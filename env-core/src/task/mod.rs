@@ -11,6 +11,7 @@
 //! [`TaskSpec`] and one line in the [`registry`].
 
 pub mod config;
+pub mod controller;
 pub mod env;
 pub mod episode;
 pub mod lift;
@@ -25,6 +26,7 @@ pub mod stack;
 use rand_chacha::ChaCha8Rng;
 
 pub use config::{ControlMode, EnvConfig, Randomization, Region, RewardType, TaskThresholds};
+pub use controller::{Controller, Plan};
 pub use env::{env_rng, EnvSnapshot, PandaEnv};
 pub use episode::{
     EpisodeStart, ObjectStart, ResetOptions, StepInfo, TaskInfo, Transition, TASK_INFO_CAPACITY,

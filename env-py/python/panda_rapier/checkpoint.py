@@ -71,7 +71,7 @@ def _signature(path: Path) -> str:
 def save(model: Any, folder: Path, state: dict[str, Any], run: dict[str, Any]) -> None:
     """Writes ``model`` (with the run record inside the zip), its replay buffer (signed) and
     ``state`` to ``folder``."""
-    from .training import save_model
+    from .model_file import save_model
 
     folder.mkdir(parents=True, exist_ok=True)
     save_model(model, folder / MODEL, run)

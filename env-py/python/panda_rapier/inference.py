@@ -32,7 +32,15 @@ import numpy as np
 
 from . import _native
 from .errors import InvalidArgumentError
-from .model_file import UnsupportedModelError, read_model_file, read_run_info
+from .model_file import (
+    UnsupportedModelError,
+    UntrustedModelError,
+    load_sb3_model,
+    model_observation,
+    read_model_file,
+    read_run_info,
+    saved_spaces,
+)
 from .policy import RandomPolicy, ScriptedPolicy, observation_rows
 from .registration import DEFAULT_ENV_ID, ENV_IDS, env_config
 
@@ -394,11 +402,6 @@ def _build(
 INFERENCE_CHOICES = ("auto", "native", "torch")
 
 
-class UntrustedModelError(UnsupportedModelError):
-    """Acting a model file out would unpickle (and so may run) code from it, and the caller
-    did not say the file is trusted."""
-
-
 def load_policy(
     path: str | Path,
     env_id: str,
@@ -438,7 +441,6 @@ def load_policy(
             "which can run code it carries; pass --trust-model-file (Python: trust=True) if "
             "you trust where it came from"
         )
-    from .evaluation import load_sb3_model, model_observation, saved_spaces
     from .sb3 import make_vec_env
 
     observation_space, action_space = saved_spaces(path, trust=True)

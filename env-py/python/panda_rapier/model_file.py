@@ -24,7 +24,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .errors import InvalidArgumentError
+from .errors import ConfigError, InvalidArgumentError
 
 __all__ = [
     "RUN_MEMBER",
@@ -198,3 +198,125 @@ def _rebuild_tensor(storage: Any, offset: Any, size: Any, stride: Any, *_: Any) 
     for axis, (n, s) in enumerate(zip(size, stride, strict=True)):
         index += (np.arange(n, dtype=np.int64) * s).reshape((-1,) + (1,) * (len(size) - axis - 1))
     return storage[index].astype(storage.dtype.newbyteorder("="))
+
+
+class UntrustedModelError(UnsupportedModelError):
+    """Acting a model file out would unpickle (and so may run) code from it, and the caller
+    did not say the file is trusted."""
+
+
+def save_model(model: Any, path: Path, run: Mapping[str, Any]) -> None:
+    """Saves a stable-baselines3 ``model`` to ``path`` with the run record inside the zip
+    (:data:`RUN_MEMBER`)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    model.save(path)
+    with zipfile.ZipFile(path, "a") as archive:
+        archive.writestr(RUN_MEMBER, json.dumps(run, indent=2, default=str))
+
+
+#: stable-baselines3 / sb3-contrib algorithms ``load_sb3_model`` knows.
+SB3_ALGORITHMS = ("a2c", "ddpg", "ppo", "sac", "td3", "tqc")
+
+
+def _algorithm_of(path: Path) -> str | None:
+    """The algorithm a stable-baselines3 zip was saved by, read from its policy class."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile):
+        return None
+    module = str(data.get("policy_class", {}).get("__module__", ""))
+    parts = module.split(".")
+    if len(parts) >= 2 and parts[1] in SB3_ALGORITHMS:  # sac, td3 (and ddpg), tqc
+        return parts[1]
+    if module == "stable_baselines3.common.policies":  # the actor-critic of PPO and A2C
+        return "ppo" if "clip_range" in data else "a2c"
+    return None
+
+
+def load_sb3_model(
+    path: str | Path, env: Any = None, algo: str | None = None, *, trust: bool = False
+) -> Any:
+    """Loads a saved stable-baselines3 (or sb3-contrib) model on the CPU. The algorithm is read
+    from the file unless ``algo`` names it; ``env`` (a VecEnv with the model's spaces) is
+    needed by models saved with a hindsight replay buffer. stable-baselines3 unpickles entries
+    of the file, which can run code a hostile file carries: without ``trust=True`` this raises
+    :class:`~panda_rapier.inference.UntrustedModelError` (to act a model out without trusting
+    it, use :class:`~panda_rapier.inference.PolicyNetwork`)."""
+    path = Path(path)
+    _require_trust(path, trust)
+    if not path.is_file():
+        raise InvalidArgumentError(f"no model file at {path}")
+    algo = (algo or _algorithm_of(path) or "").lower()
+    if algo not in SB3_ALGORITHMS:
+        raise InvalidArgumentError(
+            f"cannot tell which algorithm saved {path}; pass one of {SB3_ALGORITHMS}"
+        )
+    try:
+        algorithm: Any
+        if algo == "tqc":
+            from sb3_contrib import TQC
+
+            algorithm = TQC
+        else:
+            import stable_baselines3
+
+            algorithm = getattr(stable_baselines3, algo.upper())
+    except ImportError as error:
+        raise ImportError(
+            f"evaluating a {algo.upper()} model needs stable-baselines3"
+            f"{' and sb3-contrib' if algo == 'tqc' else ''}: pip install 'panda-rapier[train]'"
+        ) from error
+    return algorithm.load(path, env=env, device="cpu")
+
+
+def saved_spaces(model_path: str | Path, *, trust: bool = False) -> tuple[Any, Any]:
+    """The observation and action spaces saved in a stable-baselines3 model file (``None``
+    each where absent), read without building the model; they are pickled in the file, so
+    this needs ``trust=True`` as :func:`load_sb3_model` does."""
+    from stable_baselines3.common.save_util import load_from_zip_file
+
+    _require_trust(Path(model_path), trust)
+    data, _, _ = load_from_zip_file(Path(model_path), load_data=True, device="cpu")
+    data = data or {}
+    return data.get("observation_space"), data.get("action_space")
+
+
+def _require_trust(path: Path, trust: bool) -> None:
+    if not trust:
+        raise UntrustedModelError(
+            f"{path}: loading it with stable-baselines3 unpickles entries of the file, which "
+            "can run code it carries; pass trust=True (--trust-model-file) if you trust where "
+            "it came from"
+        )
+
+
+def model_observation(space: Any) -> dict[str, Any]:
+    """The image options (``obs_mode``, ``image_size``) of a model trained on the observation
+    ``space`` (as :func:`saved_spaces` reads it): none for state observations. Images under keys
+    other than the default camera's ``rgb`` need their cameras, which only the Python API
+    takes."""
+    from gymnasium import spaces
+
+    if not isinstance(space, spaces.Dict):
+        return {}
+    images = {
+        k: v for k, v in space.spaces.items() if isinstance(v, spaces.Box) and v.dtype == np.uint8
+    }
+    if not images:
+        return {}
+    if set(images) != {"rgb"}:
+        raise ConfigError(
+            f"the model observes the cameras {sorted(images)}: evaluate it from Python with "
+            "panda_rapier.evaluation.evaluate(..., cameras=...)"
+        )
+    shape = images["rgb"].shape
+    assert shape is not None
+    # Saved as SB3's VecTransposeImage passed it on: channels first.
+    height, width = (shape[1], shape[2]) if shape[0] == 3 else (shape[0], shape[1])
+    return {
+        "obs_mode": "state+rgb" if "observation" in space.spaces else "rgb",
+        "image_size": (int(height), int(width)),
+    }

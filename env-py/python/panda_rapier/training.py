@@ -39,7 +39,6 @@ import json
 import platform
 import sys
 import time
-import zipfile
 from collections.abc import Callable, Mapping
 from importlib import resources
 from pathlib import Path
@@ -47,7 +46,7 @@ from typing import Any
 
 from . import __version__, checkpoint
 from .errors import ConfigError, InvalidArgumentError
-from .model_file import RUN_MEMBER, read_run_info
+from .model_file import read_run_info, save_model
 from .registration import ENV_IDS, env_config
 
 __all__ = [
@@ -218,14 +217,6 @@ def versions() -> dict[str, str]:
         except ImportError:
             pass
     return found
-
-
-def save_model(model: Any, path: Path, run: Mapping[str, Any]) -> None:
-    """Saves ``model`` to ``path`` with the run record inside the zip."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    model.save(path)
-    with zipfile.ZipFile(path, "a") as archive:
-        archive.writestr(RUN_MEMBER, json.dumps(run, indent=2, default=str))
 
 
 class _Recorder:

@@ -3,9 +3,9 @@
 
 use nalgebra::Vector3;
 
-use super::Robot;
 use crate::kinematics::{IkOptions, IkWorkspace};
 use crate::physics::{JointControl, Simulation};
+use crate::robot::Robot;
 use crate::task::config::{ControlMode, EnvConfig};
 
 /// What one action asked for, besides the joint targets the controller keeps.
