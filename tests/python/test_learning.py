@@ -25,10 +25,11 @@ from panda_rapier import ConfigError, InvalidArgumentError, RandomPolicy  # noqa
 from panda_rapier.cli import main  # noqa: E402
 from panda_rapier.evaluation import evaluate  # noqa: E402
 from panda_rapier.imitation import Demonstrations, behaviour_cloning, collect  # noqa: E402
+from panda_rapier.model_file import RUN_MEMBER, read_run_info  # noqa: E402
 from panda_rapier.normalization import NormalizedFlatten, fit_normalizers  # noqa: E402
 from panda_rapier.registration import env_config  # noqa: E402
 from panda_rapier.sb3 import make_vec_env  # noqa: E402
-from panda_rapier.training import RUN_MEMBER, load_recipe, read_run_info  # noqa: E402
+from panda_rapier.training import load_recipe  # noqa: E402
 
 th.set_num_threads(1)
 

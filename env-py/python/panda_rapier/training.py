@@ -46,7 +46,11 @@ from typing import Any
 
 from . import __version__, checkpoint
 from .errors import ConfigError, InvalidArgumentError
-from .model_file import read_run_info, save_model
+
+# Re-exported: the run record's member name, reader and writer were first found here.
+from .model_file import RUN_MEMBER as RUN_MEMBER
+from .model_file import read_run_info as read_run_info
+from .model_file import save_model as save_model
 from .registration import ENV_IDS, env_config
 
 __all__ = [
