@@ -7,8 +7,9 @@
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use panda_rapier::env::PandaEnv;
 use panda_rapier::policies::ScriptedPolicy;
-use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions, RewardType};
+use panda_rapier::task::{ControlMode, EnvConfig, ResetOptions, RewardType};
 use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

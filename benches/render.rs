@@ -4,9 +4,10 @@
 //! `cargo bench --bench render` (throughput is reported as frames per second).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use panda_rapier::env::PandaEnv;
 use panda_rapier::policies::ScriptedPolicy;
 use panda_rapier::render::{RenderConfig, Renderer};
-use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
+use panda_rapier::task::{EnvConfig, ResetOptions};
 
 fn render(c: &mut Criterion) {
     let config = EnvConfig::default();

@@ -5,7 +5,8 @@
 //!
 //! Resets (with seeds 0, 1, ...) whenever an episode ends, so reset cost shows in proportion.
 
-use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
+use panda_rapier::env::PandaEnv;
+use panda_rapier::task::{EnvConfig, ResetOptions};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

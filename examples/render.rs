@@ -7,9 +7,10 @@
 use std::io::Write;
 use std::time::Instant;
 
+use panda_rapier::env::PandaEnv;
 use panda_rapier::policies::ScriptedPolicy;
 use panda_rapier::render::{RenderConfig, Renderer};
-use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
+use panda_rapier::task::{EnvConfig, ResetOptions};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();

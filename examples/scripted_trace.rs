@@ -5,8 +5,9 @@
 //! `task` is a [`TaskKind`] name (default `pick_and_place`), `arm` `dynamic` (default) or
 //! `kinematic`.
 
+use panda_rapier::env::PandaEnv;
 use panda_rapier::policies::ScriptedPolicy;
-use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions, TaskKind};
+use panda_rapier::task::{ControlMode, EnvConfig, ResetOptions, TaskKind};
 use panda_rapier::ArmFidelity;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

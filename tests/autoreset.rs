@@ -5,7 +5,8 @@
 //!   ignores its action and returns reward 0 (Gymnasium's default);
 //! - disabled: stepping an ended env is an error until it is reset.
 
-use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
+use panda_rapier::env::PandaEnv;
+use panda_rapier::task::{EnvConfig, ResetOptions};
 use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use panda_rapier::Error;
 

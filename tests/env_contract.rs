@@ -1,7 +1,8 @@
 //! Contract: rewards, success logic and `compute_reward`, and typed errors for bad input.
 
+use panda_rapier::env::PandaEnv;
 use panda_rapier::task::{
-    ControlMode, EnvConfig, PandaEnv, PickAndPlaceConfig, ResetOptions, RewardType, TaskConfig,
+    ControlMode, EnvConfig, PickAndPlaceConfig, ResetOptions, RewardType, TaskConfig,
 };
 
 /// The pick-and-place task with goals in the air with probability `air`.

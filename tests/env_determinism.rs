@@ -2,7 +2,8 @@
 //! any thread count (1, 2, 4), for environment `i` whatever the number of environments, and for
 //! a reset with a seed whatever the environment did before.
 
-use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions};
+use panda_rapier::env::PandaEnv;
+use panda_rapier::task::{ControlMode, EnvConfig, ResetOptions};
 use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -4,8 +4,9 @@
 //! typed error, and is as deterministic as the dynamic arm.
 
 use panda_rapier::demo::{self, hand_down, TutorialSequence};
+use panda_rapier::env::PandaEnv;
 use panda_rapier::nalgebra::Vector3;
-use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions};
+use panda_rapier::task::{ControlMode, EnvConfig, ResetOptions};
 use panda_rapier::{ArmFidelity, Error, IkOptions, JointControl, SimConfig, Simulation};
 
 fn kinematic() -> SimConfig {

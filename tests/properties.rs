@@ -2,7 +2,8 @@
 //! value, configuration documents of any shape, seeds, reset options), the result is a finite
 //! observation or a typed `Error`, never a panic.
 
-use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
+use panda_rapier::env::PandaEnv;
+use panda_rapier::task::{EnvConfig, ResetOptions};
 use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use panda_rapier::Error;
 use proptest::prelude::*;

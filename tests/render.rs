@@ -2,8 +2,9 @@
 //! renderer draws the cube and the robot where they are, and the same state gives the same
 //! bytes.
 
+use panda_rapier::env::PandaEnv;
 use panda_rapier::render::{CameraConfig, RenderConfig, Renderer};
-use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
+use panda_rapier::task::{EnvConfig, ResetOptions};
 use panda_rapier::{SimConfig, Simulation, VisualShape, VisualTag};
 
 fn env(seed: u64) -> PandaEnv {

@@ -2,9 +2,10 @@
 //! length in both action modes and with both arm models, reads nothing but the observation (the same observation gives
 //! the same action, in any environment), and recovers when the cube is taken from its hand.
 
+use panda_rapier::env::PandaEnv;
 use panda_rapier::nalgebra::{UnitQuaternion, Vector3};
 use panda_rapier::policies::{evaluate, Phase, ScriptedPolicy};
-use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions};
+use panda_rapier::task::{ControlMode, EnvConfig, ResetOptions};
 use panda_rapier::ArmFidelity;
 
 fn config(mode: ControlMode) -> EnvConfig {

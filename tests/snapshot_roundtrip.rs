@@ -1,7 +1,8 @@
 //! Contract: restoring a snapshot continues bit-identically, including mid-grasp with contacts
 //! active, and a snapshot moves between environments built from the same configuration.
 
-use panda_rapier::task::{EnvConfig, PandaEnv, ResetOptions};
+use panda_rapier::env::PandaEnv;
+use panda_rapier::task::{EnvConfig, ResetOptions};
 use panda_rapier::Error;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -3,7 +3,8 @@
 //! it; along the way `is_grasped`, `is_lifted`, `is_success` and `is_placed` switch on when they
 //! should, and the reward matches `compute_reward` on the reported goals and info.
 
-use panda_rapier::task::{ControlMode, EnvConfig, PandaEnv, ResetOptions, RewardType};
+use panda_rapier::env::PandaEnv;
+use panda_rapier::task::{ControlMode, EnvConfig, ResetOptions, RewardType};
 
 /// Phase-based controller for `ee` control, reading only the flat observation.
 fn scripted_ee(obs: &[f32], env: &PandaEnv, phase: &mut usize) -> [f32; 4] {

@@ -3,9 +3,10 @@
 //! reproducing every step reward, the observation schema, and the scripted expert solving the
 //! task. One parametrised copy of each check, not one per task.
 
+use panda_rapier::env::PandaEnv;
 use panda_rapier::policies::{evaluate, ScriptedPolicy};
 use panda_rapier::task::{
-    ControlMode, EnvConfig, ObservationLayout, PandaEnv, ResetOptions, RewardType, TaskKind,
+    ControlMode, EnvConfig, ObservationLayout, ResetOptions, RewardType, TaskKind,
 };
 use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use panda_rapier::{ArmFidelity, Error};

@@ -17,6 +17,7 @@
 pub mod assets;
 pub mod config;
 pub mod dynamics;
+pub mod env;
 pub mod error;
 pub mod kinematics;
 pub mod model;
@@ -29,6 +30,7 @@ pub mod vector;
 pub use config::{
     ArmFidelity, CubeConfig, MotorConfig, MultibodyUpdate, PlatformConfig, SimConfig, SolverConfig,
 };
+pub use env::{Controller, EnvSnapshot, PandaEnv};
 pub use error::{Error, Result};
 pub use kinematics::{pointing_down, IkOptions, IkReport, IkSolution, IkWorkspace};
 pub use model::{JointInfo, JointType, LinkInfo, Mimic, RobotModel, Tcp};
@@ -39,10 +41,9 @@ pub use physics::{
 pub use robot::panda::READY as PANDA_READY;
 pub use robot::{Gripper, Robot};
 pub use sensor::Sensor;
-pub use task::Controller;
 pub use task::{
-    ControlMode, EnvConfig, EnvSnapshot, ObservationLayout, PandaEnv, ResetOptions, RewardType,
-    StepInfo, Task, TaskKind, Transition,
+    ControlMode, EnvConfig, ObservationLayout, ResetOptions, RewardType, StepInfo, Task, TaskKind,
+    Transition,
 };
 pub use vector::{AutoresetMode, PandaVecEnv};
 

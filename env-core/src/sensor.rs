@@ -1,7 +1,7 @@
 //! [`Sensor`]: observation bytes beyond the state vector (camera images), computed from an
 //! environment's state by the vector env on each environment's thread.
 
-use crate::task::PandaEnv;
+use crate::env::PandaEnv;
 
 /// Extra observation bytes computed from an environment's state (camera images): one per
 /// environment of a [`PandaVecEnv`], see [`PandaVecEnv::set_sensors`].

@@ -261,7 +261,7 @@ pub struct EnvConfig {
     /// wrapper keeps time (Gymnasium's `TimeLimit`, which `gym.make` adds from the registry).
     /// The default, 70 steps (2.8 s at 25 Hz), is the episode length the scripted policy needs
     /// to place the cube in at least 99 % of episodes in both action modes (see
-    /// [`PandaEnv`](crate::task::PandaEnv), "Episode end").
+    /// [`PandaEnv`](crate::env::PandaEnv), "Episode end").
     pub max_episode_steps: Option<u32>,
     /// Actions per simulated second (Hz); `1 / (control_frequency * sim.solver.dt)` must be a
     /// whole number of physics steps.

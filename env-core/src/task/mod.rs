@@ -1,6 +1,6 @@
 //! Tasks on top of the robot and the [`crate::Simulation`]: what a task is ([`Task`]), the
-//! environment every task runs in ([`PandaEnv`]), the configuration, the observation and info
-//! schema, and rewards. Nothing here touches the physics engine; it goes through
+//! registry of tasks, the configuration, the observation and info schema, and rewards (the
+//! environment every task runs in is [`crate::env::PandaEnv`]). Nothing here touches the physics engine; it goes through
 //! [`crate::Simulation`].
 //!
 //! A task decides the scene (platform and objects), how an episode starts, its goals, the
@@ -11,8 +11,6 @@
 //! [`TaskSpec`] and one line in the [`registry`].
 
 pub mod config;
-pub mod controller;
-pub mod env;
 pub mod episode;
 pub mod lift;
 pub mod observation;
@@ -26,8 +24,6 @@ pub mod stack;
 use rand_chacha::ChaCha8Rng;
 
 pub use config::{ControlMode, EnvConfig, Randomization, Region, RewardType, TaskThresholds};
-pub use controller::{Controller, Plan};
-pub use env::{env_rng, EnvSnapshot, PandaEnv};
 pub use episode::{
     EpisodeStart, ObjectStart, ResetOptions, StepInfo, TaskInfo, Transition, TASK_INFO_CAPACITY,
 };

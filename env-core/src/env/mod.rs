@@ -1,5 +1,10 @@
-//! [`PandaEnv`]: one environment instance of any [`Task`] (reset, step, snapshot): the episode
-//! bookkeeping every task shares.
+//! The composition root: [`PandaEnv`], one environment instance of any [`Task`] (reset, step,
+//! snapshot), with the robot, its action [`Controller`], the world and the episode bookkeeping
+//! every task shares. It depends on `task`, `robot` and `physics`; none of them depends on it.
+
+pub mod controller;
+
+pub use controller::{Controller, Plan};
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -8,7 +13,6 @@ use crate::error::{Error, Result};
 use crate::physics::{SimSnapshot, Simulation};
 use crate::robot::Robot;
 use crate::task::config::EnvConfig;
-use crate::task::controller::{Controller, Plan};
 use crate::task::episode::{EpisodeStart, ResetOptions, StepInfo, Transition};
 use crate::task::observation::{
     ObservationLayout, GRIPPER_WIDTH, JOINT_POSITIONS, JOINT_VELOCITIES, TCP_POSITION, TCP_VELOCITY,
@@ -55,7 +59,7 @@ pub struct EnvSnapshot {
 ///
 /// Joint targets are limited by the joints' velocity limits and ramped across the control period
 /// with a velocity feed-forward, so the arm moves at a steady speed
-/// ([`crate::task::Controller`]). The gripper command is an absolute opening: -1 closes with
+/// ([`crate::env::Controller`]). The gripper command is an absolute opening: -1 closes with
 /// `sim.motors.gripper_force` (a friction grasp), +1 opens fully (0.08 m), values between ask
 /// for a proportional opening.
 ///
