@@ -43,6 +43,9 @@
 //!
 //! Stepping and refilling are separate calls so that a caller can look at the environments
 //! between them (a video of environment 0 shows the last state of each episode).
+//!
+//! Over 600 lines: the refill schedule, the records and their statistics (the one place
+//! evaluations are summarised, for Rust and Python) belong together, and half of it is tests.
 
 use panda_rapier_core::task::EnvConfig;
 use panda_rapier_core::{AutoresetMode, Error, PandaVecEnv, Result, Sensor};

@@ -109,14 +109,22 @@ impl TaskInfo {
     /// panics, so a contract test catches a misspelt key).
     pub fn set(&mut self, key: &str, value: impl Into<InfoValue>) {
         match self.fields.iter().position(|f| f.key == key) {
-            Some(i) if i < TASK_INFO_CAPACITY => {
-                self.values[i] = match value.into() {
+            Some(i) => self.set_at(i, value),
+            None => debug_assert!(false, "no info field {key:?}"),
+        }
+    }
+
+    /// Sets the `i`-th field's entry (out of range: ignored, and a debug build panics).
+    pub fn set_at(&mut self, i: usize, value: impl Into<InfoValue>) {
+        match self.values.get_mut(i) {
+            Some(slot) if i < self.fields.len() => {
+                *slot = match value.into() {
                     InfoValue::Bool(b) => f64::from(u8::from(b)),
                     InfoValue::Float(x) => x,
                     InfoValue::Int(n) => n as f64,
                 }
             }
-            _ => debug_assert!(false, "no info field {key:?}"),
+            _ => debug_assert!(false, "no info field {i}"),
         }
     }
 
@@ -356,6 +364,12 @@ pub(crate) const CUBE_REGION: crate::task::config::Region = crate::task::config:
 
 /// The cube tasks' default range of start yaws (rad).
 pub(crate) const CUBE_YAW_RANGE: crate::task::config::Range = [-0.25, 0.25];
+
+/// Where the platform tasks draw their goals by default: on the platform's top.
+pub(crate) const PLATFORM_GOAL_REGION: crate::task::config::Region = crate::task::config::Region {
+    low: [0.42, 0.22],
+    high: [0.58, 0.38],
+};
 
 /// A cube's start orientation: the yaw `options.cube_yaw`, else a uniform draw `u` across
 /// `yaw_range`.

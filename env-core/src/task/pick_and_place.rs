@@ -40,7 +40,9 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::config::{validate_range, Range, Region};
-use super::episode::{cube_orientation, CubeProperties, CUBE_REGION, CUBE_YAW_RANGE};
+use super::episode::{
+    cube_orientation, CubeProperties, CUBE_REGION, CUBE_YAW_RANGE, PLATFORM_GOAL_REGION,
+};
 use super::registry::{TaskDescriptor, TaskSpec};
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::config::invalid;
@@ -116,20 +118,21 @@ pub(crate) fn cube_task_info(
 ) -> TaskInfo {
     let mut info = TaskInfo::new(fields);
     let t = &goal.terms;
-    for field in fields {
+    // Filled by position: one pass over the fields, no lookups.
+    for (i, field) in fields.iter().enumerate() {
         match field.key {
-            "is_grasped" => info.set(field.key, is_grasped),
-            "is_lifted" => info.set(field.key, is_lifted),
-            "is_placed" => info.set(field.key, goal.is_placed),
-            "reward_reach" => info.set(field.key, context.reach),
-            "reward_grasp" => info.set(field.key, context.grasp),
-            "reward_lift" => info.set(field.key, context.lift),
-            "reward_carry" => info.set(field.key, t.carry),
-            "reward_place" => info.set(field.key, t.place),
-            "reward_release" => info.set(field.key, t.release),
-            "cube_released" => info.set(field.key, context.cube_released),
-            "cube_at_rest" => info.set(field.key, context.cube_at_rest),
-            "cube_on_platform" => info.set(field.key, context.cube_on_platform),
+            "is_grasped" => info.set_at(i, is_grasped),
+            "is_lifted" => info.set_at(i, is_lifted),
+            "is_placed" => info.set_at(i, goal.is_placed),
+            "reward_reach" => info.set_at(i, context.reach),
+            "reward_grasp" => info.set_at(i, context.grasp),
+            "reward_lift" => info.set_at(i, context.lift),
+            "reward_carry" => info.set_at(i, t.carry),
+            "reward_place" => info.set_at(i, t.place),
+            "reward_release" => info.set_at(i, t.release),
+            "cube_released" => info.set_at(i, context.cube_released),
+            "cube_at_rest" => info.set_at(i, context.cube_at_rest),
+            "cube_on_platform" => info.set_at(i, context.cube_on_platform),
             other => debug_assert!(false, "no cube info entry {other:?}"),
         }
     }
@@ -194,10 +197,7 @@ impl Default for PickAndPlaceConfig {
         Self {
             cube_region: CUBE_REGION,
             cube_yaw_range: CUBE_YAW_RANGE,
-            goal_region: Region {
-                low: [0.42, 0.22],
-                high: [0.58, 0.38],
-            },
+            goal_region: PLATFORM_GOAL_REGION,
             goal_air_probability: 0.0,
             goal_air_height: [0.05, 0.2],
         }

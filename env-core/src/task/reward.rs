@@ -36,6 +36,9 @@
 //! opening do not depend on the goal; `carry`, `place` and `release` are recomputed from
 //! `achieved_goal` and `desired_goal`, so relabelled goals (HER) get exactly the reward the
 //! environment would have given.
+//!
+//! Over 600 lines: the staged cube reward, its terms and weights, the batched form every task
+//! uses for `compute_reward`, and tests of each term's weighting, kept in one place.
 
 use std::collections::BTreeMap;
 

@@ -50,7 +50,9 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::config::{Range, Region};
-use super::episode::{cube_orientation, CubeProperties, CUBE_REGION, CUBE_YAW_RANGE};
+use super::episode::{
+    cube_orientation, CubeProperties, CUBE_REGION, CUBE_YAW_RANGE, PLATFORM_GOAL_REGION,
+};
 use super::registry::{TaskDescriptor, TaskSpec};
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
@@ -171,10 +173,7 @@ impl Default for StackConfig {
         Self {
             cube_region: CUBE_REGION,
             cube_yaw_range: CUBE_YAW_RANGE,
-            goal_region: Region {
-                low: [0.42, 0.22],
-                high: [0.58, 0.38],
-            },
+            goal_region: PLATFORM_GOAL_REGION,
         }
     }
 }
