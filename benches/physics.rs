@@ -35,7 +35,7 @@ fn physics_step(c: &mut Criterion) {
                 let n = STEPS_PER_SCENE.min(iters - done);
                 let start = Instant::now();
                 for k in 0..n {
-                    let t = k as f64 * sim.config().solver.dt;
+                    let t = k as f64 * sim.config().physics.solver.dt;
                     demo::swing_base_joint(&mut sim, q1, t).unwrap();
                     sim.step();
                 }

@@ -48,7 +48,7 @@ fn swing_creep(sim_config: &SimConfig) -> panda_rapier::Result<(f64, f64, bool)>
     };
     let start = in_hand(&sim);
     let q1 = sim.joint_positions()[0];
-    let dt = sim_config.solver.dt;
+    let dt = sim_config.physics.solver.dt;
     let (mut within_2s, mut within_10s) = (0.0f64, 0.0f64);
     let steps = (10.0 / dt).round() as usize;
     for k in 1..=steps {
@@ -78,8 +78,13 @@ fn main() -> panda_rapier::Result<()> {
         None => 200,
     };
     if args.is_empty() {
-        let s = SimConfig::default().solver;
-        args.push(format!("{}:{}:{}", s.dt, s.substeps, s.solver_iterations));
+        let s = SimConfig::default().physics.solver;
+        args.push(format!(
+            "{}:{}:{}",
+            s.dt,
+            SimConfig::default().substeps,
+            s.solver_iterations
+        ));
     }
     println!("settings          env-steps/s  slip carry/max (mm, deg)  track (mm)  creep 2s/10s (mm)  placed ee/joints");
     for spec in &args {
@@ -89,7 +94,10 @@ fn main() -> panda_rapier::Result<()> {
         };
         let mut arm = ArmFidelity::Dynamic;
         let mut multibody_update = MultibodyUpdate::Step;
-        let mut prediction = SimConfig::default().solver.contact_prediction_distance;
+        let mut prediction = SimConfig::default()
+            .physics
+            .solver
+            .contact_prediction_distance;
         for option in options {
             match *option {
                 "kinematic" => arm = ArmFidelity::Kinematic,
@@ -104,12 +112,13 @@ fn main() -> panda_rapier::Result<()> {
             arm,
             ..EnvConfig::default()
         };
-        config.sim.arm = arm;
-        config.sim.solver.dt = dt.parse().expect("dt");
-        config.sim.solver.substeps = substeps.parse().expect("substeps");
-        config.sim.solver.solver_iterations = iterations.parse().expect("iterations");
-        config.sim.solver.multibody_update = multibody_update;
-        config.sim.solver.contact_prediction_distance = prediction;
+        let dt: f64 = dt.parse().expect("dt");
+        let substeps: f64 = substeps.parse().expect("substeps");
+        config.control_frequency = 1.0 / (dt * substeps);
+        config.physics.solver.dt = dt;
+        config.physics.solver.solver_iterations = iterations.parse().expect("iterations");
+        config.physics.solver.multibody_update = multibody_update;
+        config.physics.solver.contact_prediction_distance = prediction;
         let rate = env_steps_per_second(&config)?;
         let mut sim = Simulation::new(config.sim_config()?)?;
         let plan = TutorialSequence::for_scene(&sim);

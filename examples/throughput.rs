@@ -49,8 +49,8 @@ fn main() -> panda_rapier::Result<()> {
     } else {
         sizes
     };
-    let period =
-        EnvConfig::default().sim_config()?.solver.dt * EnvConfig::default().substeps()? as f64;
+    let period = EnvConfig::default().sim_config()?.physics.solver.dt
+        * EnvConfig::default().substeps()? as f64;
     println!("{STEPS} steps of random actions, median of {ROUNDS} alternating rounds");
     println!(
         "{:>5} {:>16} {:>16} {:>8} {:>14}",

@@ -107,7 +107,7 @@ fn goals_lie_on_or_above_the_platform_and_cubes_start_in_the_pick_region() {
     };
     let section = PickAndPlaceConfig::default();
     let mut env = PandaEnv::new(config.clone()).unwrap();
-    let rest = config.sim.platform.top_center[2] + config.sim.cube.size / 2.0;
+    let rest = config.platform().unwrap().top_center[2] + config.cube().unwrap().size / 2.0;
     let mut in_air = 0;
     for seed in 0..200 {
         env.reset(Some(seed), &ResetOptions::default()).unwrap();
@@ -125,7 +125,7 @@ fn goals_lie_on_or_above_the_platform_and_cubes_start_in_the_pick_region() {
         let p = &section.cube_region;
         assert!(cube[0] as f64 >= p.low[0] - 1e-6 && cube[0] as f64 <= p.high[0] + 1e-6);
         assert!(cube[1] as f64 >= p.low[1] - 1e-6 && cube[1] as f64 <= p.high[1] + 1e-6);
-        assert!((cube[2] as f64 - config.sim.cube.size / 2.0).abs() < 1e-4);
+        assert!((cube[2] as f64 - config.cube().unwrap().size / 2.0).abs() < 1e-4);
         let info = env.info();
         assert!(!info.is_success && !info.flag("is_grasped") && !info.flag("is_placed"));
     }

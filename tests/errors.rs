@@ -1,7 +1,7 @@
 //! Contract: bad input is a typed error naming the problem, never a panic.
 
 use panda_rapier::nalgebra::{UnitQuaternion, Vector3};
-use panda_rapier::{Error, JointControl, RobotModel, SimConfig, Simulation};
+use panda_rapier::{Error, JointControl, RobotModel, Scene, SimConfig, Simulation};
 
 fn sim() -> Simulation {
     Simulation::new(SimConfig::default()).unwrap()
@@ -117,16 +117,17 @@ fn fixed_and_mimic_joints_cannot_be_commanded() {
 
 #[test]
 fn invalid_configs_and_assets_are_rejected() {
-    let mut config = SimConfig::default();
-    config.cube.mass = 0.0;
-    assert!(
-        matches!(Simulation::new(config), Err(Error::InvalidConfig { field, .. }) if field == "cube.mass")
-    );
+    let config = SimConfig::default();
+    let mut scene = Scene::tutorial();
+    scene.objects[0].mass = 0.0;
+    let model = RobotModel::from_config(&config).unwrap();
+    assert!(matches!(
+        Simulation::with_scene(config, model, scene),
+        Err(Error::InvalidConfig { field, .. }) if field == "scene.objects[0].mass"
+    ));
 
-    let config = SimConfig {
-        robot_urdf: Some("/does/not/exist.urdf".into()),
-        ..Default::default()
-    };
+    let mut config = SimConfig::default();
+    config.robot.urdf = Some("/does/not/exist.urdf".into());
     assert!(matches!(
         Simulation::new(config),
         Err(Error::AssetNotFound { .. })
@@ -136,10 +137,8 @@ fn invalid_configs_and_assets_are_rejected() {
     std::fs::create_dir_all(&dir).unwrap();
     let broken = dir.join("broken.urdf");
     std::fs::write(&broken, "<robot name='r'><link name='a'><joint></robot>").unwrap();
-    let config = SimConfig {
-        robot_urdf: Some(broken),
-        ..Default::default()
-    };
+    let mut config = SimConfig::default();
+    config.robot.urdf = Some(broken);
     assert!(matches!(
         Simulation::new(config),
         Err(Error::MalformedUrdf { .. })
@@ -152,17 +151,13 @@ fn invalid_configs_and_assets_are_rejected() {
            <joint name="j" type="fixed"><parent link="a"/><child link="b"/></joint></robot>"#,
     )
     .unwrap();
-    let config = SimConfig {
-        robot_urdf: Some(fixed_only),
-        ..Default::default()
-    };
+    let mut config = SimConfig::default();
+    config.robot.urdf = Some(fixed_only);
     let err = Simulation::new(config).unwrap_err();
     assert!(matches!(err, Error::MalformedUrdf { .. }), "{err}");
 
-    let config = SimConfig {
-        initial_configuration: Some(vec![0.0; 3]),
-        ..Default::default()
-    };
+    let mut config = SimConfig::default();
+    config.robot.initial_configuration = Some(vec![0.0; 3]);
     // A configuration error, not an argument's: the value came from the configuration.
     assert!(matches!(
         Simulation::new(config),

@@ -5,7 +5,7 @@
 //! appears and nothing but friction holds the cube.
 
 use panda_rapier::demo::{self, TutorialSequence};
-use panda_rapier::{SimConfig, Simulation};
+use panda_rapier::{RobotModel, Scene, SimConfig, Simulation};
 
 #[test]
 fn tutorial_pick_and_place_holds_the_cube_by_friction() {
@@ -39,7 +39,8 @@ fn tutorial_pick_and_place_holds_the_cube_by_friction() {
         "placed {:.1} mm from the target",
         report.placement_error * 1e3
     );
-    let resting_height = sim.config().platform.top_center[2] + sim.config().cube.size / 2.0;
+    let resting_height =
+        sim.scene().platform.as_ref().unwrap().top_center[2] + sim.scene().objects[0].size / 2.0;
     assert!(
         (report.final_position.z - resting_height).abs() < 0.003,
         "cube centre at z = {:.4}, expected {:.4} resting on the platform",
@@ -91,7 +92,7 @@ fn a_held_cube_stays_in_the_hand_through_30_seconds_of_swinging() {
     let q1 = sim.joint_positions()[0];
     let mut drift = Vec::new();
     for k in 1..=3000 {
-        let t = k as f64 * sim.config().solver.dt;
+        let t = k as f64 * sim.config().physics.solver.dt;
         demo::swing_base_joint(&mut sim, q1, t).unwrap();
         sim.step();
         drift.push((in_hand(&sim) - start).norm());
@@ -125,9 +126,11 @@ fn the_grasp_obeys_coulomb_friction() {
     // drop it, a 20 N drive (4 N) must lift it.
     let setup = |drive_force: f64| {
         let mut config = SimConfig::default();
-        config.cube.friction = 0.2;
-        config.finger_friction = 0.2;
-        let sim = Simulation::new(config).unwrap();
+        config.robot.finger_friction = 0.2;
+        let mut scene = Scene::tutorial();
+        scene.objects[0].friction = 0.2;
+        let model = RobotModel::from_config(&config).unwrap();
+        let sim = Simulation::with_scene(config, model, scene).unwrap();
         let mut plan = TutorialSequence::for_scene(&sim);
         plan.grip_force = drive_force;
         (sim, plan)

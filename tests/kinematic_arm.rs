@@ -48,7 +48,7 @@ fn the_tutorial_grasp_holds_on_the_kinematic_arm() {
 #[test]
 fn a_hand_driven_into_the_platform_stops_above_it() {
     let mut sim = Simulation::new(kinematic()).unwrap();
-    let top = sim.config().platform.top_center;
+    let top = sim.scene().platform.as_ref().unwrap().top_center;
     let q = sim.joint_positions();
     let inside = Vector3::new(top[0], top[1], top[2] - 0.05);
     let target = sim

@@ -12,7 +12,7 @@ fn sim_config(arm: ArmFidelity, update: MultibodyUpdate) -> SimConfig {
         arm,
         ..SimConfig::default()
     };
-    config.solver.multibody_update = update;
+    config.physics.solver.multibody_update = update;
     config
 }
 
@@ -60,9 +60,12 @@ fn step_and_substep_updates_follow_the_same_trajectory() {
 fn multibody_update_is_a_named_validated_option() {
     let config =
         EnvConfig::from_json(r#"{"sim": {"solver": {"multibody_update": "substep"}}}"#).unwrap();
-    assert_eq!(config.sim.solver.multibody_update, MultibodyUpdate::Substep);
     assert_eq!(
-        EnvConfig::default().sim.solver.multibody_update,
+        config.physics.solver.multibody_update,
+        MultibodyUpdate::Substep
+    );
+    assert_eq!(
+        EnvConfig::default().physics.solver.multibody_update,
         MultibodyUpdate::Step
     );
     assert_eq!(MultibodyUpdate::Substep.as_str(), "substep");
@@ -83,10 +86,10 @@ fn contact_prediction_distance_is_a_real_option() {
     for arm in [ArmFidelity::Dynamic, ArmFidelity::Kinematic] {
         let run = |prediction: f64| {
             let mut config = sim_config(arm, MultibodyUpdate::Step);
-            config.solver.dt = 0.02;
-            config.solver.substeps = 2;
-            config.solver.solver_iterations = 12;
-            config.solver.contact_prediction_distance = prediction;
+            config.physics.solver.dt = 0.02;
+            config.substeps = 2;
+            config.physics.solver.solver_iterations = 12;
+            config.physics.solver.contact_prediction_distance = prediction;
             let mut sim = Simulation::new(config).unwrap();
             let plan = TutorialSequence::for_scene(&sim);
             demo::run(&mut sim, &plan).unwrap()
@@ -102,7 +105,10 @@ fn contact_prediction_distance_is_a_real_option() {
         assert_ne!(default.final_position, wider.final_position, "{arm:?}");
     }
     assert_eq!(
-        SimConfig::default().solver.contact_prediction_distance,
+        SimConfig::default()
+            .physics
+            .solver
+            .contact_prediction_distance,
         0.002
     );
     let error =

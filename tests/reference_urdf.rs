@@ -103,10 +103,8 @@ fn pybullet_reference_panda_loads_with_its_meshes_and_limits() {
     assert_eq!(movable(&model), movable(&bundled));
 
     // Every link whose URDF has a collision mesh gets colliders from it, and the robot simulates.
-    let config = SimConfig {
-        robot_urdf: Some(path),
-        ..Default::default()
-    };
+    let mut config = SimConfig::default();
+    config.robot.urdf = Some(path);
     let mut sim = Simulation::new(config).unwrap();
     for link in model
         .urdf()

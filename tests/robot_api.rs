@@ -178,11 +178,9 @@ fn arm_velocities(sim: &Simulation) -> Vec<f64> {
 
 /// A simulation without gravity.
 fn weightless() -> Simulation {
-    Simulation::new(SimConfig {
-        gravity: [0.0, 0.0, 0.0],
-        ..SimConfig::default()
-    })
-    .unwrap()
+    let mut config = SimConfig::default();
+    config.physics.gravity = [0.0, 0.0, 0.0];
+    Simulation::new(config).unwrap()
 }
 
 /// What each of `steps` physics steps adds to every entry of the joint velocities.
@@ -252,11 +250,9 @@ fn no_hidden_joint_damping_and_an_explicit_one_acts() {
     // Zero gravity, zero torque, a spinning wrist: with no damping configured (the URDF has no
     // `<dynamics>`) the joint keeps its speed; `joint_damping` slows it.
     let spin = |damping: Option<f64>| {
-        let config = SimConfig {
-            gravity: [0.0, 0.0, 0.0],
-            joint_damping: damping,
-            ..SimConfig::default()
-        };
+        let mut config = SimConfig::default();
+        config.physics.gravity = [0.0, 0.0, 0.0];
+        config.robot.joint_damping = damping;
         let mut sim = Simulation::new(config).unwrap();
         let j7 = sim.model().joint_index("panda_joint7").unwrap();
         sim.set_joint_control(j7, JointControl::Torque(1.0))
@@ -283,22 +279,20 @@ fn no_hidden_joint_damping_and_an_explicit_one_acts() {
         end < 0.9 * start,
         "damped wrist: {start} -> {end} rad/s in 0.2 s"
     );
-    assert!(Simulation::new(SimConfig {
-        joint_damping: Some(-1.0),
-        ..SimConfig::default()
-    })
-    .is_err());
+    let mut config = SimConfig::default();
+    config.robot.joint_damping = Some(-1.0);
+    assert!(Simulation::new(config).is_err());
 }
 
 #[test]
 fn a_moved_robot_base_moves_the_dynamic_and_the_kinematic_arm() {
     // Issue 33: the dynamic arm ignored `robot_base` while kinematics honoured it.
     for arm in [ArmFidelity::Dynamic, ArmFidelity::Kinematic] {
-        let config = SimConfig {
+        let mut config = SimConfig {
             arm,
-            robot_base: [0.2, -0.1, 0.05],
             ..SimConfig::default()
         };
+        config.robot.base = [0.2, -0.1, 0.05];
         let mut sim = Simulation::new(config).unwrap();
         let base = sim.link_state("panda_link0").unwrap();
         assert!(

@@ -72,7 +72,7 @@ fn snapshot_continues_bit_identically() {
 
     // Not into a differently configured one.
     let mut different = PandaEnv::new(EnvConfig {
-        sim: panda_rapier::SimConfig {
+        physics: panda_rapier::PhysicsConfig {
             floor_friction: 0.5,
             ..Default::default()
         },

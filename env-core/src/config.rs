@@ -1,4 +1,8 @@
-//! Validated configuration of the simulated scene and the physics solver.
+//! Validated configuration of the simulated world, by owner: the physics ([`PhysicsConfig`]:
+//! gravity, the floor, the solver), the robot ([`RobotConfig`]: its model, base, joints and
+//! motors) and the objects a task puts in the world ([`PlatformConfig`], [`CubeConfig`], which
+//! the task's own configuration section holds). [`SimConfig`] joins the first two with the arm's
+//! fidelity for a bare [`crate::Simulation`].
 
 use std::path::PathBuf;
 
@@ -15,9 +19,6 @@ use crate::error::{Error, Result};
 pub struct SolverConfig {
     /// Physics time step in seconds.
     pub dt: f64,
-    /// Physics steps per control step (`Simulation::step_control`); the control period is
-    /// `dt * substeps` (default 0.01 s x 4 = 25 Hz).
-    pub substeps: u32,
     /// Velocity solver iterations per physics step. With 4 a held cube creeps in the hand
     /// under sustained swinging (it dropped after 30-60 s of a 0.5 Hz swing); 6 holds it.
     pub solver_iterations: u32,
@@ -70,7 +71,6 @@ impl Default for SolverConfig {
     fn default() -> Self {
         Self {
             dt: 0.01,
-            substeps: 4,
             solver_iterations: 6,
             contact_natural_frequency: 120.0,
             contact_damping_ratio: 5.0,
@@ -134,7 +134,7 @@ impl Default for MotorConfig {
     }
 }
 
-/// The fixed box the cube is carried to.
+/// The fixed box a task carries its cube to (part of the task's configuration section).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PlatformConfig {
@@ -156,7 +156,38 @@ impl Default for PlatformConfig {
     }
 }
 
-/// The dynamic cube that is picked and placed.
+impl PlatformConfig {
+    /// Checks every value; errors name the field under `prefix` (such as `task.platform`).
+    pub fn validate(&self, prefix: &str) -> Result<()> {
+        finite3(&format!("{prefix}.top_center"), self.top_center)?;
+        for (i, &v) in self.size.iter().enumerate() {
+            positive(&format!("{prefix}.size[{i}]"), v)?;
+        }
+        non_negative(&format!("{prefix}.friction"), self.friction)?;
+        if self.top_center[2] - self.size[2] < -1e-9 {
+            return Err(invalid(
+                prefix,
+                format!(
+                    "extends below the floor: top at z = {} with height {}",
+                    self.top_center[2], self.size[2]
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The box's top face as `(low, high)` corners in x and y (m).
+    pub fn top_face(&self) -> ([f64; 2], [f64; 2]) {
+        let half = [self.size[0] / 2.0, self.size[1] / 2.0];
+        (
+            [self.top_center[0] - half[0], self.top_center[1] - half[1]],
+            [self.top_center[0] + half[0], self.top_center[1] + half[1]],
+        )
+    }
+}
+
+/// The dynamic cube a task moves (part of the task's configuration section; the task places
+/// it at every reset, so it has no position here).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CubeConfig {
@@ -166,8 +197,6 @@ pub struct CubeConfig {
     pub mass: f64,
     /// Friction coefficient.
     pub friction: f64,
-    /// Initial centre (m, world frame); the default rests on the floor in front of the robot.
-    pub position: [f64; 3],
 }
 
 impl Default for CubeConfig {
@@ -176,8 +205,23 @@ impl Default for CubeConfig {
             size: 0.05,
             mass: 0.1,
             friction: 1.0,
-            position: [0.5, -0.15, 0.025],
         }
+    }
+}
+
+impl CubeConfig {
+    /// Checks every value; errors name the field under `prefix` (such as `task.cube`).
+    pub fn validate(&self, prefix: &str) -> Result<()> {
+        positive(&format!("{prefix}.size"), self.size)?;
+        positive(&format!("{prefix}.mass"), self.mass)?;
+        non_negative(&format!("{prefix}.friction"), self.friction)?;
+        if self.size > 0.08 {
+            return Err(invalid(
+                &format!("{prefix}.size"),
+                format!("must fit the gripper's 0.08 m opening, got {}", self.size),
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -212,27 +256,44 @@ impl ArmFidelity {
     }
 }
 
-/// Everything needed to build a [`crate::Simulation`].
+/// The physics of the world: gravity, the floor and the solver.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
-pub struct SimConfig {
-    /// Fidelity of the arm's simulation.
-    pub arm: ArmFidelity,
+pub struct PhysicsConfig {
     /// Gravity (m/s^2).
     pub gravity: [f64; 3],
+    /// Friction coefficient of the floor.
+    pub floor_friction: f64,
+    /// Solver settings.
+    pub solver: SolverConfig,
+}
+
+impl Default for PhysicsConfig {
+    fn default() -> Self {
+        Self {
+            gravity: [0.0, 0.0, -9.81],
+            floor_friction: 1.0,
+            solver: SolverConfig::default(),
+        }
+    }
+}
+
+/// The robot: its model, where it stands, its joints and its motors. (Its fidelity, `arm`, and
+/// how it is commanded, `control_mode`, are top-level options of an environment.)
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RobotConfig {
     /// Robot description; `None` uses the bundled Panda (`assets/panda/panda.urdf`).
-    pub robot_urdf: Option<PathBuf>,
+    pub urdf: Option<PathBuf>,
     /// Position of the robot's root link (m).
-    pub robot_base: [f64; 3],
+    pub base: [f64; 3],
     /// Initial arm configuration, one entry per actuated joint; `None` uses the Panda's ready
     /// pose (hand pointing down, gripper open) or zeros for other robots.
     pub initial_configuration: Option<Vec<f64>>,
     /// Friction coefficient of the finger pads.
     pub finger_friction: f64,
     /// Friction coefficient of the other robot links.
-    pub robot_friction: f64,
-    /// Friction coefficient of the floor.
-    pub floor_friction: f64,
+    pub link_friction: f64,
     /// Viscous damping (N m s/rad or N s/m) of every movable joint of the dynamic arm and the
     /// gripper, in place of the URDF's `<dynamics damping>`; `None` uses the URDF's, 0 where
     /// it has none (the bundled Panda has none). A passive term beside the motors: position and
@@ -241,33 +302,49 @@ pub struct SimConfig {
     /// Coulomb friction (N m or N) of every movable joint, in place of the URDF's `<dynamics
     /// friction>`; `None` uses the URDF's, 0 where absent.
     pub joint_friction: Option<f64>,
-    /// Solver settings.
-    pub solver: SolverConfig,
     /// Joint motor gains.
     pub motors: MotorConfig,
-    /// The platform.
-    pub platform: PlatformConfig,
-    /// The cube.
-    pub cube: CubeConfig,
+}
+
+impl Default for RobotConfig {
+    fn default() -> Self {
+        Self {
+            urdf: None,
+            base: [0.0, 0.0, 0.0],
+            initial_configuration: None,
+            finger_friction: 1.0,
+            link_friction: 0.5,
+            joint_damping: None,
+            joint_friction: None,
+            motors: MotorConfig::default(),
+        }
+    }
+}
+
+/// Everything needed to build a [`crate::Simulation`] besides its [`crate::Scene`]: the arm's
+/// fidelity, the physics steps per control step, the physics and the robot. An environment
+/// derives it from its [`crate::EnvConfig`] (`EnvConfig::sim_config`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimConfig {
+    /// Fidelity of the arm's simulation.
+    pub arm: ArmFidelity,
+    /// Physics steps per control step (`Simulation::step_control`); the control period is
+    /// `physics.solver.dt * substeps` (default 0.01 s x 4 = 25 Hz).
+    pub substeps: u32,
+    /// Gravity, floor and solver.
+    pub physics: PhysicsConfig,
+    /// The robot.
+    pub robot: RobotConfig,
 }
 
 impl Default for SimConfig {
     fn default() -> Self {
         Self {
             arm: ArmFidelity::Dynamic,
-            gravity: [0.0, 0.0, -9.81],
-            robot_urdf: None,
-            robot_base: [0.0, 0.0, 0.0],
-            initial_configuration: None,
-            finger_friction: 1.0,
-            robot_friction: 0.5,
-            floor_friction: 1.0,
-            joint_damping: None,
-            joint_friction: None,
-            solver: SolverConfig::default(),
-            motors: MotorConfig::default(),
-            platform: PlatformConfig::default(),
-            cube: CubeConfig::default(),
+            substeps: 4,
+            physics: PhysicsConfig::default(),
+            robot: RobotConfig::default(),
         }
     }
 }
@@ -309,6 +386,98 @@ fn finite3(field: &str, v: [f64; 3]) -> Result<()> {
     }
 }
 
+impl SolverConfig {
+    /// Checks every value; errors name the field under `prefix` (such as `physics.solver`).
+    pub fn validate(&self, prefix: &str) -> Result<()> {
+        let field = |name: &str| format!("{prefix}.{name}");
+        positive(&field("dt"), self.dt)?;
+        if self.dt > 0.05 {
+            return Err(invalid(
+                &field("dt"),
+                format!("must be <= 0.05 s, got {}", self.dt),
+            ));
+        }
+        if self.solver_iterations == 0 || self.solver_iterations > 100 {
+            return Err(invalid(
+                &field("solver_iterations"),
+                format!("must be in 1..=100, got {}", self.solver_iterations),
+            ));
+        }
+        positive(
+            &field("contact_natural_frequency"),
+            self.contact_natural_frequency,
+        )?;
+        positive(&field("contact_damping_ratio"), self.contact_damping_ratio)?;
+        positive(&field("length_unit"), self.length_unit)?;
+        positive(
+            &field("contact_prediction_distance"),
+            self.contact_prediction_distance,
+        )?;
+        if self.contact_prediction_distance > 1.0 {
+            return Err(invalid(
+                &field("contact_prediction_distance"),
+                format!(
+                    "must be at most 1 m, got {}",
+                    self.contact_prediction_distance
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl PhysicsConfig {
+    /// Checks every value; errors name the field as `physics.<field>`.
+    pub fn validate(&self) -> Result<()> {
+        finite3("physics.gravity", self.gravity)?;
+        non_negative("physics.floor_friction", self.floor_friction)?;
+        self.solver.validate("physics.solver")
+    }
+}
+
+impl MotorConfig {
+    /// Checks every value; errors name the field under `prefix` (such as `robot.motors`).
+    pub fn validate(&self, prefix: &str) -> Result<()> {
+        let field = |name: &str| format!("{prefix}.{name}");
+        positive(&field("stiffness"), self.stiffness)?;
+        non_negative(&field("damping"), self.damping)?;
+        positive(&field("velocity_damping"), self.velocity_damping)?;
+        non_negative(&field("gripper_force"), self.gripper_force)?;
+        positive(&field("gripper_stiffness"), self.gripper_stiffness)?;
+        non_negative(&field("gripper_damping"), self.gripper_damping)?;
+        non_negative(&field("arm_armature"), self.arm_armature)?;
+        non_negative(&field("finger_armature"), self.finger_armature)?;
+        positive(
+            &field("kinematic_acceleration"),
+            self.kinematic_acceleration,
+        )
+    }
+}
+
+impl RobotConfig {
+    /// Checks every value; errors name the field as `robot.<field>`.
+    pub fn validate(&self) -> Result<()> {
+        finite3("robot.base", self.base)?;
+        if let Some(q) = &self.initial_configuration {
+            if let Some(bad) = q.iter().find(|v| !v.is_finite()) {
+                return Err(invalid(
+                    "robot.initial_configuration",
+                    format!("must be finite, got {bad}"),
+                ));
+            }
+        }
+        non_negative("robot.finger_friction", self.finger_friction)?;
+        non_negative("robot.link_friction", self.link_friction)?;
+        if let Some(d) = self.joint_damping {
+            non_negative("robot.joint_damping", d)?;
+        }
+        if let Some(f) = self.joint_friction {
+            non_negative("robot.joint_friction", f)?;
+        }
+        self.motors.validate("robot.motors")
+    }
+}
+
 impl SimConfig {
     /// Parses a JSON document; unknown keys are errors.
     pub fn from_json(text: &str) -> Result<Self> {
@@ -320,102 +489,14 @@ impl SimConfig {
 
     /// Checks every value; the first problem found is returned with its field name.
     pub fn validate(&self) -> Result<()> {
-        finite3("gravity", self.gravity)?;
-        finite3("robot_base", self.robot_base)?;
-        if let Some(q) = &self.initial_configuration {
-            if let Some(bad) = q.iter().find(|v| !v.is_finite()) {
-                return Err(invalid(
-                    "initial_configuration",
-                    format!("must be finite, got {bad}"),
-                ));
-            }
-        }
-        non_negative("finger_friction", self.finger_friction)?;
-        non_negative("robot_friction", self.robot_friction)?;
-        non_negative("floor_friction", self.floor_friction)?;
-        if let Some(d) = self.joint_damping {
-            non_negative("joint_damping", d)?;
-        }
-        if let Some(f) = self.joint_friction {
-            non_negative("joint_friction", f)?;
-        }
-
-        let s = &self.solver;
-        positive("solver.dt", s.dt)?;
-        if s.dt > 0.05 {
+        if self.substeps == 0 || self.substeps > 10_000 {
             return Err(invalid(
-                "solver.dt",
-                format!("must be <= 0.05 s, got {}", s.dt),
+                "substeps",
+                format!("must be in 1..=10000, got {}", self.substeps),
             ));
         }
-        if s.substeps == 0 || s.substeps > 10_000 {
-            return Err(invalid(
-                "solver.substeps",
-                format!("must be in 1..=10000, got {}", s.substeps),
-            ));
-        }
-        if s.solver_iterations == 0 || s.solver_iterations > 100 {
-            return Err(invalid(
-                "solver.solver_iterations",
-                format!("must be in 1..=100, got {}", s.solver_iterations),
-            ));
-        }
-        positive(
-            "solver.contact_natural_frequency",
-            s.contact_natural_frequency,
-        )?;
-        positive("solver.contact_damping_ratio", s.contact_damping_ratio)?;
-        positive("solver.length_unit", s.length_unit)?;
-        positive(
-            "solver.contact_prediction_distance",
-            s.contact_prediction_distance,
-        )?;
-        if s.contact_prediction_distance > 1.0 {
-            return Err(invalid(
-                "solver.contact_prediction_distance",
-                format!("must be at most 1 m, got {}", s.contact_prediction_distance),
-            ));
-        }
-
-        let m = &self.motors;
-        positive("motors.stiffness", m.stiffness)?;
-        non_negative("motors.damping", m.damping)?;
-        positive("motors.velocity_damping", m.velocity_damping)?;
-        non_negative("motors.gripper_force", m.gripper_force)?;
-        positive("motors.gripper_stiffness", m.gripper_stiffness)?;
-        non_negative("motors.gripper_damping", m.gripper_damping)?;
-        non_negative("motors.arm_armature", m.arm_armature)?;
-        non_negative("motors.finger_armature", m.finger_armature)?;
-        positive("motors.kinematic_acceleration", m.kinematic_acceleration)?;
-
-        let p = &self.platform;
-        finite3("platform.top_center", p.top_center)?;
-        for (i, &v) in p.size.iter().enumerate() {
-            positive(&format!("platform.size[{i}]"), v)?;
-        }
-        non_negative("platform.friction", p.friction)?;
-        if p.top_center[2] - p.size[2] < -1e-9 {
-            return Err(invalid(
-                "platform",
-                format!(
-                    "extends below the floor: top at z = {} with height {}",
-                    p.top_center[2], p.size[2]
-                ),
-            ));
-        }
-
-        let c = &self.cube;
-        positive("cube.size", c.size)?;
-        positive("cube.mass", c.mass)?;
-        non_negative("cube.friction", c.friction)?;
-        finite3("cube.position", c.position)?;
-        if c.size > 0.08 {
-            return Err(invalid(
-                "cube.size",
-                format!("must fit the gripper's 0.08 m opening, got {}", c.size),
-            ));
-        }
-        Ok(())
+        self.physics.validate()?;
+        self.robot.validate()
     }
 }
 
@@ -432,21 +513,28 @@ mod tests {
     fn each_bad_value_names_its_field() {
         type Mutation = Box<dyn Fn(&mut SimConfig)>;
         let cases: Vec<(&str, Mutation)> = vec![
-            ("cube.mass", Box::new(|c| c.cube.mass = -1.0)),
-            ("cube.size", Box::new(|c| c.cube.size = f64::NAN)),
-            ("solver.dt", Box::new(|c| c.solver.dt = 0.0)),
-            ("solver.substeps", Box::new(|c| c.solver.substeps = 0)),
+            ("physics.solver.dt", Box::new(|c| c.physics.solver.dt = 0.0)),
+            ("substeps", Box::new(|c| c.substeps = 0)),
             (
-                "solver.contact_prediction_distance",
-                Box::new(|c| c.solver.contact_prediction_distance = f64::NAN),
+                "physics.solver.contact_prediction_distance",
+                Box::new(|c| c.physics.solver.contact_prediction_distance = f64::NAN),
             ),
             (
-                "solver.contact_prediction_distance",
-                Box::new(|c| c.solver.contact_prediction_distance = 2.0),
+                "physics.solver.contact_prediction_distance",
+                Box::new(|c| c.physics.solver.contact_prediction_distance = 2.0),
             ),
-            ("platform.size[1]", Box::new(|c| c.platform.size[1] = 0.0)),
-            ("gravity", Box::new(|c| c.gravity[2] = f64::INFINITY)),
-            ("motors.stiffness", Box::new(|c| c.motors.stiffness = 0.0)),
+            (
+                "physics.gravity",
+                Box::new(|c| c.physics.gravity[2] = f64::INFINITY),
+            ),
+            (
+                "robot.motors.stiffness",
+                Box::new(|c| c.robot.motors.stiffness = 0.0),
+            ),
+            (
+                "robot.link_friction",
+                Box::new(|c| c.robot.link_friction = -1.0),
+            ),
         ];
         for (field, mutate) in cases {
             let mut config = SimConfig::default();
@@ -460,10 +548,31 @@ mod tests {
 
     #[test]
     fn json_rejects_unknown_keys_and_fills_defaults() {
-        let config = SimConfig::from_json(r#"{"cube": {"mass": 0.2}}"#).unwrap();
-        assert_eq!(config.cube.mass, 0.2);
-        assert_eq!(config.cube.size, 0.05);
-        let err = SimConfig::from_json(r#"{"cube": {"weight": 0.2}}"#).unwrap_err();
+        let config = SimConfig::from_json(r#"{"robot": {"motors": {"stiffness": 2e4}}}"#).unwrap();
+        assert_eq!(config.robot.motors.stiffness, 2e4);
+        assert_eq!(config.robot.motors.damping, 400.0);
+        let err = SimConfig::from_json(r#"{"robot": {"weight": 0.2}}"#).unwrap_err();
         assert!(err.to_string().contains("weight"), "{err}");
+        // `substeps` is the environment's to derive, not a solver setting.
+        let err = SimConfig::from_json(r#"{"physics": {"solver": {"substeps": 2}}}"#).unwrap_err();
+        assert!(err.to_string().contains("substeps"), "{err}");
+    }
+
+    #[test]
+    fn objects_name_their_fields_under_the_given_prefix() {
+        let cube = CubeConfig {
+            mass: -1.0,
+            ..CubeConfig::default()
+        };
+        match cube.validate("task.cube") {
+            Err(Error::InvalidConfig { field, .. }) => assert_eq!(field, "task.cube.mass"),
+            other => panic!("{other:?}"),
+        }
+        let mut platform = PlatformConfig::default();
+        platform.size[1] = 0.0;
+        match platform.validate("task.platform") {
+            Err(Error::InvalidConfig { field, .. }) => assert_eq!(field, "task.platform.size[1]"),
+            other => panic!("{other:?}"),
+        }
     }
 }

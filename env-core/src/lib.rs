@@ -6,7 +6,7 @@
 //! configuration.
 //!
 //! - [`RobotModel`]: the robot description read from a URDF (introspection, kinematics).
-//! - [`Robot`]: the robot of an environment without a world (gripper, start pose, controller).
+//! - [`RobotSpec`]: the robot of an environment without a world (gripper, start pose, controller).
 //! - [`Simulation`]: one physics world; the only type that talks to rapier.
 //! - [`SimConfig`]: validated, serde-deserialisable configuration.
 //! - [`Task`]: what differs between tasks ([`task::PickAndPlace`] is the first).
@@ -28,7 +28,8 @@ pub mod task;
 pub mod vector;
 
 pub use config::{
-    ArmFidelity, CubeConfig, MotorConfig, MultibodyUpdate, PlatformConfig, SimConfig, SolverConfig,
+    ArmFidelity, CubeConfig, MotorConfig, MultibodyUpdate, PhysicsConfig, PlatformConfig,
+    RobotConfig, SimConfig, SolverConfig,
 };
 pub use env::{Controller, EnvSnapshot, PandaEnv};
 pub use error::{Error, Result};
@@ -39,7 +40,9 @@ pub use physics::{
     ObjectTouch, Scene, SimSnapshot, Simulation, VisualPrimitive, VisualShape, VisualTag,
 };
 pub use robot::panda::READY as PANDA_READY;
-pub use robot::{Gripper, Robot};
+#[allow(deprecated)]
+pub use robot::Robot;
+pub use robot::{Gripper, RobotSpec};
 pub use sensor::Sensor;
 pub use task::{
     ControlMode, EnvConfig, ObservationLayout, ResetOptions, RewardType, StepInfo, Task, TaskKind,

@@ -163,9 +163,9 @@ impl RobotModel {
         Self::parse(text, base_dir.as_ref(), "<string>")
     }
 
-    /// The robot `config` names: its `robot_urdf`, else the bundled Panda.
+    /// The robot `config` names: its `robot.urdf`, else the bundled Panda.
     pub fn from_config(config: &crate::config::SimConfig) -> Result<Self> {
-        match &config.robot_urdf {
+        match &config.robot.urdf {
             Some(path) => Self::from_urdf_file(path),
             None => Self::panda(),
         }

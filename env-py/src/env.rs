@@ -219,8 +219,14 @@ impl NativeEnv {
             let movable = joint.joint_type.is_movable();
             let passive =
                 |set: Option<f64>, urdf: f64| if movable { set.unwrap_or(urdf) } else { 0.0 };
-            dict.set_item("damping", passive(config.joint_damping, joint.damping))?;
-            dict.set_item("friction", passive(config.joint_friction, joint.friction))?;
+            dict.set_item(
+                "damping",
+                passive(config.robot.joint_damping, joint.damping),
+            )?;
+            dict.set_item(
+                "friction",
+                passive(config.robot.joint_friction, joint.friction),
+            )?;
             dict.set_item("index", joint.index)?;
             dict.set_item("name", &joint.name)?;
             dict.set_item("type", joint.joint_type.as_str())?;
@@ -372,7 +378,7 @@ impl NativeEnv {
         qdd: Vec<f64>,
     ) -> PyResult<Vec<f64>> {
         let sim = self.env.simulation();
-        let [x, y, z] = sim.config().gravity;
+        let [x, y, z] = sim.config().physics.gravity;
         let gravity = panda_rapier_core::nalgebra::Vector3::new(x, y, z);
         sim.model()
             .inverse_dynamics(&q, &qd, &qdd, &gravity, sim.base_pose())

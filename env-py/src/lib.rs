@@ -77,7 +77,7 @@ fn schema<'py>(py: Python<'py>, config_json: &str) -> PyResult<Bound<'py, pyo3::
     let config = env::parse_config(py, config_json)?;
     let (layout, action_dim) = errors::detached(py, || -> panda_rapier_core::Result<_> {
         let layout = ObservationLayout::for_config(&config)?;
-        let robot = panda_rapier_core::Robot::new(&config.sim_config()?)?;
+        let robot = panda_rapier_core::RobotSpec::new(&config.sim_config()?)?;
         let action_dim = panda_rapier_core::Controller::action_dim(config.control_mode, &robot);
         Ok((layout, action_dim))
     })?

@@ -8,7 +8,7 @@
 //! re-plans, so it is a test of the physics (does the friction grasp hold?), not a policy.
 
 use panda_rapier_core::nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use panda_rapier_core::{Gripper, IkOptions, JointControl, Result, Simulation};
+use panda_rapier_core::{CubeConfig, Gripper, IkOptions, JointControl, Result, Simulation};
 
 /// Parameters of the sequence.
 #[derive(Debug, Clone)]
@@ -47,15 +47,20 @@ impl TutorialSequence {
     /// The sequence for a simulation's default scene: place the cube at the centre of the
     /// platform's top.
     pub fn for_scene(sim: &Simulation) -> Self {
-        let p = &sim.config().platform;
-        let half = sim.config().cube.size / 2.0;
+        let scene = sim.scene();
+        let p = scene.platform.clone().unwrap_or_default();
+        let half = scene
+            .objects
+            .first()
+            .map_or(CubeConfig::default().size, |cube| cube.size)
+            / 2.0;
         Self {
             place_at: Vector3::new(p.top_center[0], p.top_center[1], p.top_center[2] + half),
             approach_height: 0.25,
             lift_height: 0.25,
             speed: 0.3,
             open_width: 0.08,
-            grip_force: sim.config().motors.gripper_force,
+            grip_force: sim.config().robot.motors.gripper_force,
             grasp: GraspMode::Friction,
         }
     }

@@ -44,8 +44,8 @@ def _mujoco_arm() -> tuple[object, object]:
     return model, mujoco.MjData(model)
 
 
-def _robot(**sim):
-    env = gym.make("panda_rapier/PickAndPlace-v0", **({"sim": sim} if sim else {}))
+def _robot(**robot):
+    env = gym.make("panda_rapier/PickAndPlace-v0", **({"robot": robot} if robot else {}))
     env.reset(seed=0)
     return env, env.unwrapped.robot
 
@@ -244,7 +244,7 @@ def test_gravity_compensation_with_the_models_own_torques() -> None:
 
 def test_passive_joint_terms_are_explicit() -> None:
     """No damping or friction that nobody configured: the bundled URDF has no <dynamics>, so
-    both are 0; sim.joint_damping / joint_friction set them, and joint_info reports them."""
+    both are 0; robot.joint_damping / joint_friction set them, and joint_info reports them."""
     env, robot = _robot()
     movable = [j for j in robot.joint_info() if j["type"] != "fixed"]
     assert movable and all(j["damping"] == 0.0 and j["friction"] == 0.0 for j in movable)

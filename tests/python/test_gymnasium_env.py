@@ -309,6 +309,42 @@ def test_options_from_before_0_2_warn_and_mean_the_same(
         np.testing.assert_array_equal(first[key], second[key])
 
 
+def test_the_sim_section_from_before_0_2_warns_and_means_the_same() -> None:
+    """``sim`` spread over ``physics``, ``robot``, ``arm`` and the task's section: one warning
+    per old key, the same configuration and the same episode as the new spelling."""
+    old = {
+        "sim": {
+            "solver": {"solver_iterations": 8, "substeps": 4},
+            "robot_friction": 0.4,
+            "cube": {"mass": 0.15, "position": [0.5, -0.15, 0.025]},
+            "platform": {"friction": 0.8},
+            "arm": "kinematic",
+        }
+    }
+    with pytest.warns(FutureWarning, match="0.3.0") as record:
+        before = gym.make("panda_rapier/Stack-v0", **old)
+    messages = " ".join(str(w.message) for w in record)
+    for key in ("sim.solver", "sim.solver.substeps", "sim.robot_friction", "sim.cube.position"):
+        assert key in messages, messages
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        after = gym.make(
+            "panda_rapier/Stack-v0",
+            task={"name": "stack", "cube": {"mass": 0.15}, "platform": {"friction": 0.8}},
+            physics={"solver": {"solver_iterations": 8}},
+            robot={"link_friction": 0.4},
+            arm="kinematic",
+        )
+    assert before.unwrapped.config == after.unwrapped.config
+    assert after.unwrapped.config["task"]["cube"]["mass"] == 0.15
+    first, second = before.reset(seed=5)[0], after.reset(seed=5)[0]
+    for key in first:
+        np.testing.assert_array_equal(first[key], second[key])
+    # An old key that would do nothing now is an error, not silence.
+    with pytest.raises(panda_rapier.ConfigError, match=r"sim\.cube"):
+        gym.make("panda_rapier/Reach-v0", sim={"cube": {"mass": 0.3}})
+
+
 @pytest.mark.parametrize("env_id", panda_rapier.ENV_IDS)
 def test_kinematic_arm_passes_the_checker_and_reports_blocked_motion(env_id: str) -> None:
     env = gym.make(env_id, arm="kinematic")

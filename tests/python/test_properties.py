@@ -124,7 +124,7 @@ JSON_VALUES = st.recursive(
 @FAST
 @given(
     config=st.dictionaries(
-        st.sampled_from([*CONFIG_KEYS, "unknown_key", "sim.solver.dt"]), JSON_VALUES, max_size=3
+        st.sampled_from([*CONFIG_KEYS, "unknown_key", "physics.solver.dt"]), JSON_VALUES, max_size=3
     )
 )
 def test_any_config_builds_a_working_env_or_raises_config_error(config: dict) -> None:
@@ -142,10 +142,10 @@ def test_any_config_builds_a_working_env_or_raises_config_error(config: dict) ->
 @pytest.mark.parametrize(
     "config",
     [
-        {"sim": {"cube": {"mass": -1.0}}},
-        {"sim": {"cube": {"mass": 0.0}}},
-        {"sim": {"solver": {"dt": 0.0}}},
-        {"sim": {"solver": {"dt": float("nan")}}},
+        {"task": {"name": "pick_and_place", "cube": {"mass": -1.0}}},
+        {"task": {"name": "stack", "cube": {"mass": 0.0}}},
+        {"physics": {"solver": {"dt": 0.0}}},
+        {"physics": {"solver": {"dt": float("nan")}}},
         {"task": {"name": "push", "cube_region": {"low": [0.6, 0.0], "high": [0.4, -0.2]}}},
         {"task": {"name": "stack", "goal_region": {"low": [0.5, 0.3], "high": [0.5, 0.3]}}}
         | {"success_threshold": -1},
@@ -153,7 +153,7 @@ def test_any_config_builds_a_working_env_or_raises_config_error(config: dict) ->
         {"task": {"name": "reach", "goal_region": [[0.5, 0, 0], [0.4, 1, 1]]}},
         {"task": {"name": "pick_and_place", "goal_air_probability": 2.0}},
         {"no_such_option": 1},
-        {"sim": {"robot_urdf": "/nonexistent/robot.urdf"}},
+        {"robot": {"urdf": "/nonexistent/robot.urdf"}},
         {"control_frequency": 0},
         {"max_episode_steps": 0},
     ],

@@ -5,7 +5,7 @@ use nalgebra::Vector3;
 
 use crate::kinematics::{IkOptions, IkWorkspace};
 use crate::physics::{JointControl, Simulation};
-use crate::robot::Robot;
+use crate::robot::RobotSpec;
 use crate::task::config::{ControlMode, EnvConfig};
 
 /// What one action asked for, besides the joint targets the controller keeps.
@@ -35,7 +35,7 @@ pub struct Controller {
 
 impl Controller {
     /// The controller of an environment built from `config` for `robot`.
-    pub fn new(config: &EnvConfig, robot: &Robot) -> Self {
+    pub fn new(config: &EnvConfig, robot: &RobotSpec) -> Self {
         let num_dofs = robot.model().num_dofs();
         Self {
             config: config.clone(),
@@ -52,7 +52,7 @@ impl Controller {
 
     /// Length of an action: 4 for `ee` (TCP displacement and gripper), one per arm joint plus
     /// the gripper for `joints` (8 for the Panda).
-    pub fn action_dim(mode: ControlMode, robot: &Robot) -> usize {
+    pub fn action_dim(mode: ControlMode, robot: &RobotSpec) -> usize {
         match mode {
             ControlMode::Ee => 4,
             ControlMode::Joints => robot.arm_dofs().len() + 1,
@@ -62,7 +62,7 @@ impl Controller {
     /// Turns `action` (of [`Controller::action_dim`] finite values) into joint targets, from the
     /// measured configuration, limited to what the joints' velocity limits allow in one control
     /// period.
-    pub fn plan(&mut self, robot: &Robot, sim: &Simulation, action: &[f32]) -> Plan {
+    pub fn plan(&mut self, robot: &RobotSpec, sim: &Simulation, action: &[f32]) -> Plan {
         let a = |i: usize| action[i].clamp(-1.0, 1.0) as f64;
         // The sim is finite here (a blow-up stops the episode), so this cannot fail.
         let _ = sim.joint_positions_into(&mut self.q);
@@ -130,7 +130,7 @@ impl Controller {
     /// period away (which drew peaks of 2 m/s and 40 m/s^2 at the hand and shook the cube
     /// loose).
     pub fn drive(&mut self, sim: &mut Simulation, plan: &Plan) {
-        let substeps = sim.config().solver.substeps;
+        let substeps = sim.config().substeps;
         let period = sim.control_period();
         for k in 1..=substeps {
             let fraction = k as f64 / substeps as f64;

@@ -11,7 +11,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::error::{Error, Result};
 use crate::physics::{SimSnapshot, Simulation};
-use crate::robot::Robot;
+use crate::robot::RobotSpec;
 use crate::task::config::EnvConfig;
 use crate::task::episode::{EpisodeStart, ResetOptions, StepInfo, Transition};
 use crate::task::observation::{
@@ -60,7 +60,7 @@ pub struct EnvSnapshot {
 /// Joint targets are limited by the joints' velocity limits and ramped across the control period
 /// with a velocity feed-forward, so the arm moves at a steady speed
 /// ([`crate::env::Controller`]). The gripper command is an absolute opening: -1 closes with
-/// `sim.motors.gripper_force` (a friction grasp), +1 opens fully (0.08 m), values between ask
+/// `robot.motors.gripper_force` (a friction grasp), +1 opens fully (0.08 m), values between ask
 /// for a proportional opening.
 ///
 /// # Observation space
@@ -76,7 +76,7 @@ pub struct EnvSnapshot {
 /// [`reward_context_keys`](crate::task::TaskDescriptor::reward_context_keys)).
 ///
 /// # Starting state
-/// The robot in its start pose ([`Robot::start_configuration`], plus
+/// The robot in its start pose ([`RobotSpec::start_configuration`], plus
 /// `randomization.joint_noise`), the gripper open, the objects and the goal where the task draws
 /// them.
 ///
@@ -100,7 +100,7 @@ pub struct EnvSnapshot {
 pub struct PandaEnv {
     config: EnvConfig,
     index: u64,
-    robot: Robot,
+    robot: RobotSpec,
     task: Box<dyn Task>,
     controller: Controller,
     sim: Simulation,
@@ -151,7 +151,7 @@ impl PandaEnv {
     pub fn with_index(config: EnvConfig, index: u64) -> Result<Self> {
         config.validate()?;
         let sim_config = config.sim_config()?;
-        let robot = Robot::new(&sim_config)?;
+        let robot = RobotSpec::new(&sim_config)?;
         let mut task = make_task(&config);
         let scene = task.scene(&config);
         let sim = Simulation::with_scene(sim_config, robot.model().clone(), scene)?;
@@ -207,7 +207,7 @@ impl PandaEnv {
     }
 
     /// The robot (model, gripper, start pose).
-    pub fn robot(&self) -> &Robot {
+    pub fn robot(&self) -> &RobotSpec {
         &self.robot
     }
 

@@ -26,7 +26,7 @@ use crate::model::{JointType, RobotModel};
 use crate::robot::{base_pose, home_configuration, Gripper};
 
 impl Simulation {
-    /// Builds the world described by `config` (the bundled Panda unless `robot_urdf` is set)
+    /// Builds the world described by `config` (the bundled Panda unless `robot.urdf` is set)
     /// around the classic tutorial's scene ([`Scene::tutorial`]: the platform and one cube).
     pub fn new(config: SimConfig) -> Result<Self> {
         config.validate()?;
@@ -36,7 +36,7 @@ impl Simulation {
 
     /// [`Simulation::new`] around an already loaded robot description.
     pub fn with_model(config: SimConfig, model: RobotModel) -> Result<Self> {
-        let scene = Scene::tutorial(&config);
+        let scene = Scene::tutorial();
         Self::with_scene(config, model, scene)
     }
 
@@ -46,9 +46,9 @@ impl Simulation {
         config.validate()?;
         scene.validate()?;
         let mut world = PhysicsWorld::new();
-        world.gravity = vec_from_array(config.gravity);
+        world.gravity = vec_from_array(config.physics.gravity);
         let p = &mut world.integration_parameters;
-        let s = &config.solver;
+        let s = &config.physics.solver;
         p.dt = s.dt as f32;
         p.num_solver_iterations = s.solver_iterations as usize;
         p.multibody_update = match s.multibody_update {
@@ -73,7 +73,7 @@ impl Simulation {
         let floor_body = world.bodies.insert(RigidBodyBuilder::fixed().build());
         let floor_collider = world.colliders.insert_with_parent(
             ColliderBuilder::halfspace(nalgebra::Unit::new_unchecked(Vector::Z))
-                .friction(config.floor_friction as f32)
+                .friction(config.physics.floor_friction as f32)
                 .collision_groups(InteractionGroups::new(
                     STATIC_GROUP,
                     OBJECT_GROUP | ARM_GROUP,
@@ -83,8 +83,7 @@ impl Simulation {
             floor_body,
             &mut world.bodies,
         );
-        let platform_collider = scene.platform.then(|| {
-            let pc = &config.platform;
+        let platform_collider = scene.platform.as_ref().map(|pc| {
             let platform_body = world.bodies.insert(
                 RigidBodyBuilder::fixed()
                     .translation(vec_from_array([
@@ -202,9 +201,9 @@ impl Simulation {
         for (handle, &link) in link_handles.iter().zip(&link_sources) {
             link_bodies[link] = Some(handle.body);
             let friction = if gripper.as_ref().is_some_and(|g| g.is_finger(link)) {
-                config.finger_friction
+                config.robot.finger_friction
             } else {
-                config.robot_friction
+                config.robot.link_friction
             };
             link_friction[link] = friction;
             let groups = if proximal.contains(&link) {
@@ -414,7 +413,8 @@ fn insert_multibody(
     )?;
     // rapier starts a multibody's root joint at the origin and, once it finds the root body
     // fixed, keeps that pose unless asked to read the body's: without this the dynamic arm
-    // ignored `sim.robot_base` while kinematics and `ee` control honoured it (issue 33).
+    // ignored `robot.base` (`sim.robot_base` then) while kinematics and `ee` control honoured
+    // it (issue 33).
     if let Some(mb) = world.multibody_joints.get_multibody_mut(multibody) {
         mb.forward_kinematics(&world.bodies, true);
         mb.update_rigid_bodies(&mut world.bodies, true);
@@ -479,15 +479,15 @@ fn build_multibody(
                 continue;
             };
             let armature = if finger_joints.contains(&j.index) {
-                config.motors.finger_armature
+                config.robot.motors.finger_armature
             } else {
-                config.motors.arm_armature
+                config.robot.motors.arm_armature
             };
             // Every passive term explicit: rapier gives each angular dof a default damping of
             // 0.1 N m s/rad that no URDF or option asked for (issue 33); the URDF's
             // `<dynamics>` (0 where absent) or the configuration's override replace it.
-            let damping = config.joint_damping.unwrap_or(j.damping);
-            let friction = config.joint_friction.unwrap_or(j.friction);
+            let damping = config.robot.joint_damping.unwrap_or(j.damping);
+            let friction = config.robot.joint_friction.unwrap_or(j.friction);
             if let Some(link) = mb.link(slot.link_id) {
                 let dof = link.assembly_id();
                 if dof < mb.armature().len() {

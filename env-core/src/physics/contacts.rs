@@ -139,7 +139,7 @@ impl Simulation {
                 visit(Contact::Object(ObjectId(i)));
             } else if let Some(&(_, link)) = self.robot_colliders.iter().find(|(c, _)| *c == other)
             {
-                let force = pair.total_impulse().length() as f64 / self.config.solver.dt;
+                let force = pair.total_impulse().length() as f64 / self.config.physics.solver.dt;
                 visit(Contact::Robot { link, force });
             }
         }

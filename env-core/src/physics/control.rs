@@ -210,7 +210,7 @@ impl Simulation {
                 reason: "this robot has no prismatic finger joint".into(),
             })?;
         ensure_finite(|| "gripper width".into(), width)?;
-        let force = force.unwrap_or(self.config.motors.gripper_force);
+        let force = force.unwrap_or(self.config.robot.motors.gripper_force);
         // The opening is the sum of the finger joints' positions, all driven by one joint.
         let (joint, gain) = (gripper.joint, gripper.width_gain);
         self.set_joint_control(
@@ -233,7 +233,7 @@ impl Simulation {
 
     /// Pushes the current controls into the rapier joint motors.
     fn apply_motor_settings(&mut self) {
-        let motors = &self.config.motors;
+        let motors = &self.config.robot.motors;
         let gripper_joint = self.gripper.as_ref().map(|g| g.joint);
         let Some(mb) = self
             .world

@@ -134,9 +134,9 @@ impl Simulation {
         let Some(mut arm) = self.take_kinematic_arm() else {
             return;
         };
-        let dt = self.config.solver.dt;
-        let max_dv = self.config.motors.kinematic_acceleration * dt;
-        let motors = &self.config.motors;
+        let dt = self.config.physics.solver.dt;
+        let max_dv = self.config.robot.motors.kinematic_acceleration * dt;
+        let motors = &self.config.robot.motors;
         let (stiffness, damping) = (motors.stiffness, motors.damping);
         let velocity_damping = motors.velocity_damping;
         let gripper = self.gripper_dof();

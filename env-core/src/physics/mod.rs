@@ -181,7 +181,7 @@ impl Simulation {
 
     /// The control period: `dt * substeps` (s).
     pub fn control_period(&self) -> f64 {
-        self.config.solver.dt * self.config.solver.substeps as f64
+        self.config.physics.solver.dt * self.config.substeps as f64
     }
 
     /// Advances the world by one physics step (`solver.dt`).
@@ -192,13 +192,13 @@ impl Simulation {
             self.apply_joint_torques();
         }
         self.world.step();
-        self.time += self.config.solver.dt;
+        self.time += self.config.physics.solver.dt;
         self.steps += 1;
     }
 
     /// Advances the world by one control period (`solver.substeps` physics steps).
     pub fn step_control(&mut self) {
-        for _ in 0..self.config.solver.substeps {
+        for _ in 0..self.config.substeps {
             self.step();
         }
     }

@@ -9,14 +9,14 @@ use rapier3d::dynamics::FixedJointBuilder;
 
 use super::convert::{pose_from_na, pose_to_na};
 use super::{BodyState, SceneObject, Simulation};
-use crate::config::{non_negative, positive, SimConfig};
+use crate::config::{non_negative, positive, CubeConfig, PlatformConfig};
 use crate::error::{ensure_all_finite, Error, Result};
 
 /// The platform and movable objects of a world.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scene {
-    /// Whether the platform (`SimConfig::platform`) stands in the world.
-    pub platform: bool,
+    /// The platform, when one stands in the world.
+    pub platform: Option<PlatformConfig>,
     /// The movable objects; an object's [`ObjectId`] is its position here.
     pub objects: Vec<ObjectSpec>,
 }
@@ -37,30 +37,41 @@ pub struct ObjectSpec {
 }
 
 impl ObjectSpec {
-    /// A cube named `name` with the size, mass and friction of `config.cube`, at `position`.
-    pub fn cube(name: &str, config: &SimConfig, position: [f64; 3]) -> Self {
+    /// A cube named `name` with the size, mass and friction of `cube`, at `position`.
+    pub fn cube(name: &str, cube: &CubeConfig, position: [f64; 3]) -> Self {
         Self {
             name: name.into(),
-            size: config.cube.size,
-            mass: config.cube.mass,
-            friction: config.cube.friction,
+            size: cube.size,
+            mass: cube.mass,
+            friction: cube.friction,
             position,
         }
     }
 }
 
 impl Scene {
-    /// The classic tutorial's scene: the platform and one cube named `"cube"` as `config.cube`
-    /// describes it.
-    pub fn tutorial(config: &SimConfig) -> Self {
+    /// Where the classic tutorial's cube starts: on the floor in front of the robot.
+    pub const TUTORIAL_CUBE_POSITION: [f64; 3] = [0.5, -0.15, 0.025];
+
+    /// The classic tutorial's scene: the default platform and one default cube named `"cube"`
+    /// at [`Scene::TUTORIAL_CUBE_POSITION`].
+    pub fn tutorial() -> Self {
         Self {
-            platform: true,
-            objects: vec![ObjectSpec::cube("cube", config, config.cube.position)],
+            platform: Some(PlatformConfig::default()),
+            objects: vec![ObjectSpec::cube(
+                "cube",
+                &CubeConfig::default(),
+                Self::TUTORIAL_CUBE_POSITION,
+            )],
         }
     }
 
-    /// Checks every object (finite values, positive sizes and masses, unique names).
+    /// Checks the platform and every object (finite values, positive sizes and masses, unique
+    /// names).
     pub fn validate(&self) -> Result<()> {
+        if let Some(platform) = &self.platform {
+            platform.validate("scene.platform")?;
+        }
         for (i, object) in self.objects.iter().enumerate() {
             let field = |what: &str| format!("scene.objects[{i}].{what}");
             positive(&field("size"), object.size)?;

@@ -2,8 +2,9 @@
 //! gripper, its start pose and the controller that turns actions into joint targets.
 //!
 //! Everything here is readable without building a physics world (the scripted policy and the
-//! Python side ask these facts of a [`Robot`], not of a [`crate::Simulation`]); what is specific
-//! to the Franka Panda sits in [`panda`].
+//! Python side ask these facts of a [`RobotSpec`], not of a [`crate::Simulation`]); what is
+//! specific to the Franka Panda sits in [`panda`]. (Python's `panda_rapier.Robot` is another
+//! object: a live handle on an environment's world, the robot side of [`crate::Simulation`].)
 
 pub mod panda;
 
@@ -81,11 +82,12 @@ impl Gripper {
     }
 }
 
-/// The robot of an environment: its description, how its arm is simulated, where it stands, the
-/// configuration a reset puts it in, its gripper and the orientation `ee` control holds the hand
-/// at.
+/// The robot of an environment, without a world: its description, how its arm is simulated,
+/// where it stands, the configuration a reset puts it in, its gripper and the orientation `ee`
+/// control holds the hand at. Built from [`SimConfig`] (the resolved `robot` and `arm`
+/// options), as [`crate::ObjectSpec`] describes an object before a world holds it.
 #[derive(Debug, Clone)]
-pub struct Robot {
+pub struct RobotSpec {
     model: RobotModel,
     arm: ArmFidelity,
     base: Isometry3<f64>,
@@ -96,8 +98,16 @@ pub struct Robot {
     hand_down: UnitQuaternion<f64>,
 }
 
-impl Robot {
-    /// The robot `config` describes (the bundled Panda unless `robot_urdf` is set).
+/// The name of [`RobotSpec`] before 0.2.
+#[deprecated(
+    since = "0.2.0",
+    note = "renamed `RobotSpec` (Python's `Robot` is a live handle on a world, another object); \
+            the old name is removed in 0.3.0"
+)]
+pub type Robot = RobotSpec;
+
+impl RobotSpec {
+    /// The robot `config` describes (the bundled Panda unless `robot.urdf` is set).
     pub fn new(config: &SimConfig) -> Result<Self> {
         Self::with_model(config, RobotModel::from_config(config)?)
     }
@@ -107,7 +117,7 @@ impl Robot {
     pub fn with_model(config: &SimConfig, model: RobotModel) -> Result<Self> {
         config.validate()?;
         let gripper = Gripper::of(&model).ok_or_else(|| Error::InvalidConfig {
-            field: "sim.robot_urdf".into(),
+            field: "robot.urdf".into(),
             reason: "manipulation needs a robot with a prismatic gripper joint".into(),
         })?;
         let arm_dofs = (0..model.num_dofs())
@@ -200,7 +210,7 @@ impl Robot {
 
 /// Where `config` puts the robot's root.
 pub(crate) fn base_pose(config: &SimConfig) -> Isometry3<f64> {
-    let [x, y, z] = config.robot_base;
+    let [x, y, z] = config.robot.base;
     Isometry3::translation(x, y, z)
 }
 
@@ -208,7 +218,7 @@ pub(crate) fn base_pose(config: &SimConfig) -> Isometry3<f64> {
 /// or zeros (unclamped, unrounded); an `initial_configuration` of the wrong length is a
 /// configuration error.
 pub(crate) fn home_configuration(config: &SimConfig, model: &RobotModel) -> Result<Vec<f64>> {
-    let q = match &config.initial_configuration {
+    let q = match &config.robot.initial_configuration {
         Some(q) => q.clone(),
         None if panda::is_panda(model) => panda::READY.to_vec(),
         None => vec![0.0; model.num_dofs()],
@@ -226,7 +236,7 @@ pub(crate) fn home_configuration(config: &SimConfig, model: &RobotModel) -> Resu
     Ok(q)
 }
 
-/// [`Robot::start_configuration`]: the home configuration as a world built from `config`
+/// [`RobotSpec::start_configuration`]: the home configuration as a world built from `config`
 /// reports it.
 fn start_configuration(config: &SimConfig, model: &RobotModel) -> Result<Vec<f64>> {
     let mut q = home_configuration(config, model)?;

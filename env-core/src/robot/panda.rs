@@ -1,6 +1,6 @@
 //! Everything specific to the Franka Panda, in one place: the bundled description's names and
 //! the poses and offsets the rest of the crate uses when the robot is a Panda. Other robots
-//! (any URDF through `SimConfig::robot_urdf`) get the generic fallbacks documented at each use.
+//! (any URDF through `RobotConfig::urdf`) get the generic fallbacks documented at each use.
 
 use crate::model::RobotModel;
 

@@ -1,19 +1,23 @@
-//! Validated configuration of the pick-and-place environment.
+//! Validated configuration of an environment ([`EnvConfig`]): the task's section, the robot,
+//! the physics and the episode's options.
 //!
-//! Over 600 lines because [`EnvConfig`]'s doc test spells out every default value, which keeps
-//! the documented defaults true.
+//! Over 600 lines because [`EnvConfig`]'s doc test spells out every default value (about 100
+//! lines), which keeps the documented defaults true, and the validation's tests name every
+//! field they refuse.
 
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{invalid, non_negative, positive, ArmFidelity, SimConfig};
+use crate::config::{
+    invalid, non_negative, positive, ArmFidelity, CubeConfig, PhysicsConfig, PlatformConfig,
+    RobotConfig, SimConfig,
+};
 use crate::error::Result;
+use crate::task::migrate::{migrate, Deprecation};
 #[cfg(doc)]
 use crate::task::registry::TaskSpec;
-use crate::task::registry::{
-    migrate_legacy_keys, migrate_reward_weights, Deprecation, TaskConfig, TaskDescriptor, TaskKind,
-};
+use crate::task::registry::{TaskConfig, TaskDescriptor, TaskKind};
 
 /// How actions drive the robot.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -140,11 +144,15 @@ impl Default for TaskThresholds {
     }
 }
 
-/// Everything that defines a pick-and-place environment. Defaults: the classic tutorial's
-/// scene, 25 Hz control, 70 steps, sparse reward, end-effector control.
+/// Everything that defines an environment, by owner: the task (`task`: which one, with its own
+/// objects, regions and ranges), the robot (`arm`, `control_mode`, `robot`: its model, joints
+/// and motors) and the physics (`physics`: gravity, floor, solver), beside the episode's
+/// options (reward, length, control rate, action scales). Defaults: pick-and-place, 25 Hz
+/// control, 70 steps, sparse reward, end-effector control, the dynamic arm.
 ///
-/// The physics step `sim.solver.dt` and `control_frequency` fix the number of physics steps
-/// per action; `sim.solver.substeps` is derived from them (whatever it is set to).
+/// The physics step `physics.solver.dt` and `control_frequency` fix the number of physics
+/// steps per action. Configurations from before 0.2 (a `sim` section, top-level task keys)
+/// still read, with a [`Deprecation`] note per old key ([`EnvConfig::from_json_with_notes`]).
 ///
 /// # Defaults
 ///
@@ -155,6 +163,12 @@ impl Default for TaskThresholds {
 /// {
 ///   "task": {
 ///     "name": "pick_and_place",
+///     "cube": {"size": 0.05, "mass": 0.1, "friction": 1.0},
+///     "platform": {
+///       "top_center": [0.5, 0.3, 0.1],
+///       "size": [0.3, 0.3, 0.1],
+///       "friction": 1.0
+///     },
 ///     "cube_region": {
 ///       "low": [0.4, -0.2],
 ///       "high": [0.6, 0.0]
@@ -193,27 +207,27 @@ impl Default for TaskThresholds {
 ///     "unstable_linear_speed": 20.0,
 ///     "unstable_angular_speed": 200.0
 ///   },
-///   "sim": {
-///     "arm": "dynamic",
+///   "physics": {
 ///     "gravity": [0.0, 0.0, -9.81],
-///     "robot_urdf": null,
-///     "robot_base": [0.0, 0.0, 0.0],
-///     "initial_configuration": null,
-///     "finger_friction": 1.0,
-///     "robot_friction": 0.5,
 ///     "floor_friction": 1.0,
-///     "joint_damping": null,
-///     "joint_friction": null,
 ///     "solver": {
 ///       "dt": 0.01,
-///       "substeps": 4,
 ///       "solver_iterations": 6,
 ///       "contact_natural_frequency": 120.0,
 ///       "contact_damping_ratio": 5.0,
 ///       "length_unit": 0.1,
 ///       "contact_prediction_distance": 0.002,
 ///       "multibody_update": "step"
-///     },
+///     }
+///   },
+///   "robot": {
+///     "urdf": null,
+///     "base": [0.0, 0.0, 0.0],
+///     "initial_configuration": null,
+///     "finger_friction": 1.0,
+///     "link_friction": 0.5,
+///     "joint_damping": null,
+///     "joint_friction": null,
 ///     "motors": {
 ///       "stiffness": 40000.0,
 ///       "damping": 400.0,
@@ -224,17 +238,6 @@ impl Default for TaskThresholds {
 ///       "arm_armature": 0.0,
 ///       "finger_armature": 0.05,
 ///       "kinematic_acceleration": 50.0
-///     },
-///     "platform": {
-///       "top_center": [0.5, 0.3, 0.1],
-///       "size": [0.3, 0.3, 0.1],
-///       "friction": 1.0
-///     },
-///     "cube": {
-///       "size": 0.05,
-///       "mass": 0.1,
-///       "friction": 1.0,
-///       "position": [0.5, -0.15, 0.025]
 ///     }
 ///   }
 /// }
@@ -249,6 +252,10 @@ pub struct EnvConfig {
     /// The task and its own section: regions, ranges and objects (each task's module lists
     /// its fields; [`TaskConfig`]). In JSON `"reach"` or `{"name": "reach", ...}`.
     pub task: TaskConfig,
+    /// Fidelity of the arm's simulation: `dynamic` (the default: a torque-limited multibody)
+    /// or `kinematic` (Fetch-style: links follow the commanded trajectory, fingers and cube
+    /// dynamic; several times faster). See [`ArmFidelity`].
+    pub arm: ArmFidelity,
     /// How actions drive the robot.
     pub control_mode: ControlMode,
     /// Sparse or dense reward.
@@ -263,7 +270,7 @@ pub struct EnvConfig {
     /// to place the cube in at least 99 % of episodes in both action modes (see
     /// [`PandaEnv`](crate::env::PandaEnv), "Episode end").
     pub max_episode_steps: Option<u32>,
-    /// Actions per simulated second (Hz); `1 / (control_frequency * sim.solver.dt)` must be a
+    /// Actions per simulated second (Hz); `1 / (control_frequency * physics.solver.dt)` must be a
     /// whole number of physics steps.
     pub control_frequency: f64,
     /// The cube counts as at the goal within this distance (m).
@@ -291,20 +298,17 @@ pub struct EnvConfig {
     pub randomization: Randomization,
     /// Thresholds of the task predicates and of the blow-up detector.
     pub thresholds: TaskThresholds,
-    /// Fidelity of the arm's simulation: `dynamic` (the default: a torque-limited multibody)
-    /// or `kinematic` (Fetch-style: links follow the commanded trajectory, fingers and cube
-    /// dynamic; several times faster). See [`ArmFidelity`]. It sets `sim.arm`.
-    pub arm: ArmFidelity,
-    /// The scene and the physics. The environment places the cube itself at every reset, so
-    /// `sim.cube.position` is not used; `sim.solver.substeps` is derived from
-    /// `control_frequency` and `sim.arm` from `arm`.
-    pub sim: SimConfig,
+    /// Gravity, the floor and the solver.
+    pub physics: PhysicsConfig,
+    /// The robot's model, base, joints and motors.
+    pub robot: RobotConfig,
 }
 
 impl Default for EnvConfig {
     fn default() -> Self {
         Self {
             task: TaskConfig::default(),
+            arm: ArmFidelity::Dynamic,
             control_mode: ControlMode::Ee,
             reward_type: RewardType::Sparse,
             reward_weights: BTreeMap::new(),
@@ -319,8 +323,8 @@ impl Default for EnvConfig {
             ee_surface_margin: 0.05,
             randomization: Randomization::default(),
             thresholds: TaskThresholds::default(),
-            arm: ArmFidelity::Dynamic,
-            sim: SimConfig::default(),
+            physics: PhysicsConfig::default(),
+            robot: RobotConfig::default(),
         }
     }
 }
@@ -353,8 +357,7 @@ impl EnvConfig {
     pub fn from_json_with_notes(text: &str) -> Result<(Self, Vec<Deprecation>)> {
         let mut document: serde_json::Value =
             serde_json::from_str(text).map_err(|e| invalid("<json>", e.to_string()))?;
-        let mut notes = migrate_legacy_keys(&mut document)?;
-        notes.extend(migrate_reward_weights(&mut document)?);
+        let notes = migrate(&mut document)?;
         let config: Self =
             serde_json::from_value(document).map_err(|e| invalid("<json>", e.to_string()))?;
         config.validate()?;
@@ -371,77 +374,78 @@ impl EnvConfig {
 
     /// Physics steps per action, or an error naming the offending fields.
     pub fn substeps(&self) -> Result<u32> {
+        let dt = self.physics.solver.dt;
         positive("control_frequency", self.control_frequency)?;
-        positive("sim.solver.dt", self.sim.solver.dt)?;
-        let ratio = 1.0 / (self.control_frequency * self.sim.solver.dt);
+        positive("physics.solver.dt", dt)?;
+        let ratio = 1.0 / (self.control_frequency * dt);
         let rounded = ratio.round();
         if rounded < 1.0 || (ratio - rounded).abs() > 1e-6 * rounded {
             return Err(invalid(
                 "control_frequency",
                 format!(
-                    "{} Hz is not a whole number of physics steps of sim.solver.dt = {} s",
-                    self.control_frequency, self.sim.solver.dt
+                    "{} Hz is not a whole number of physics steps of physics.solver.dt = {dt} s",
+                    self.control_frequency
                 ),
             ));
         }
         Ok(rounded as u32)
     }
 
-    /// The scene configuration the environment's simulation is built from: `sim` with the
-    /// derived substeps.
+    /// What the environment's simulation is built from: `arm`, `physics` and `robot` with
+    /// the physics steps per action ([`EnvConfig::substeps`]).
     pub fn sim_config(&self) -> Result<SimConfig> {
-        let mut sim = self.sim.clone();
-        sim.solver.substeps = self.substeps()?;
-        if sim.arm != ArmFidelity::Dynamic && sim.arm != self.arm {
-            return Err(invalid(
-                "sim.arm",
-                format!(
-                    "is {:?} but arm is {:?}: set the top-level `arm` only",
-                    sim.arm.as_str(),
-                    self.arm.as_str()
-                ),
-            ));
-        }
-        sim.arm = self.arm;
-        Ok(sim)
+        Ok(SimConfig {
+            arm: self.arm,
+            substeps: self.substeps()?,
+            physics: self.physics.clone(),
+            robot: self.robot.clone(),
+        })
     }
 
-    /// Whether the task's scene has the platform ([`TaskDescriptor::has_platform`]).
+    /// The task's platform, when its scene has one.
+    pub fn platform(&self) -> Option<&PlatformConfig> {
+        self.task.platform()
+    }
+
+    /// The task's cube, when it moves one.
+    pub fn cube(&self) -> Option<&CubeConfig> {
+        self.task.cube()
+    }
+
+    /// Whether the task's scene has the platform.
     pub fn has_platform(&self) -> bool {
-        self.task.kind().descriptor().has_platform
+        self.platform().is_some()
     }
 
     /// The height (m) of the surface under the point (x, y) as `ee` targets see it: the
     /// platform's top near its footprint (see `ee_surface_margin`) if the task has the
     /// platform, else the floor.
     pub fn surface_height(&self, x: f64, y: f64) -> f64 {
-        let p = &self.sim.platform;
+        let Some(p) = self.platform() else {
+            return 0.0;
+        };
         let reach_x = p.size[0] / 2.0 + self.ee_surface_margin;
         let reach_y = p.size[1] / 2.0 + self.ee_surface_margin;
         let over = (x - p.top_center[0]).abs() <= reach_x && (y - p.top_center[1]).abs() <= reach_y;
-        if self.has_platform() && over {
+        if over {
             p.top_center[2]
         } else {
             0.0
         }
     }
 
-    /// For the tasks with the platform: cubes drawn in `cube_region` start clear of it (any
-    /// yaw, the largest size drawn) and goals in `goal_region` lie on its top. Errors name
-    /// `task.cube_region` or `task.goal_region`.
+    /// For the tasks with a platform: cubes drawn in `cube_region` start clear of `platform`
+    /// (any yaw, the largest size drawn) and goals in `goal_region` lie on its top. Errors
+    /// name `task.cube_region` or `task.goal_region`.
     pub fn validate_platform_regions(
         &self,
+        platform: &PlatformConfig,
+        cube: &CubeConfig,
         cube_region: &Region,
         goal_region: &Region,
     ) -> Result<()> {
-        let pc = &self.sim.platform;
-        let half = [pc.size[0] / 2.0, pc.size[1] / 2.0];
-        let platform_low = [pc.top_center[0] - half[0], pc.top_center[1] - half[1]];
-        let platform_high = [pc.top_center[0] + half[0], pc.top_center[1] + half[1]];
-        let largest_cube = self
-            .randomization
-            .cube_size
-            .map_or(self.sim.cube.size, |s| s[1]);
+        let (platform_low, platform_high) = platform.top_face();
+        let largest_cube = self.randomization.cube_size.map_or(cube.size, |s| s[1]);
         // Half the diagonal: a yawed cube reaches that far from its centre.
         let reach = largest_cube * std::f64::consts::FRAC_1_SQRT_2;
         let pick = cube_region;
@@ -563,6 +567,19 @@ impl EnvConfig {
             validate_range("randomization.cube_friction", f, 0.0)?;
         }
         non_negative("randomization.joint_noise", r.joint_noise)?;
+        if self.cube().is_none() {
+            let drawn = [
+                ("cube_size", r.cube_size.is_some()),
+                ("cube_mass", r.cube_mass.is_some()),
+                ("cube_friction", r.cube_friction.is_some()),
+            ];
+            if let Some((name, _)) = drawn.iter().find(|(_, set)| *set) {
+                return Err(invalid(
+                    &format!("randomization.{name}"),
+                    format!("the {} task has no cube to draw it for", self.task.kind()),
+                ));
+            }
+        }
         let t = &self.thresholds;
         positive("thresholds.grasp_force", t.grasp_force)?;
         positive("thresholds.rest_linear_speed", t.rest_linear_speed)?;
@@ -604,8 +621,8 @@ mod tests {
             ..EnvConfig::default()
         };
         assert_eq!(config.substeps().unwrap(), 2);
-        assert_eq!(config.sim_config().unwrap().solver.substeps, 2);
-        config.sim.solver.dt = 0.002;
+        assert_eq!(config.sim_config().unwrap().substeps, 2);
+        config.physics.solver.dt = 0.002;
         assert_eq!(config.substeps().unwrap(), 10);
         config.control_frequency = 20.0;
         assert_eq!(config.substeps().unwrap(), 25);
@@ -660,8 +677,16 @@ mod tests {
                 "ee_workspace",
                 Box::new(|c| c.ee_workspace[0][2] = f64::NAN),
             ),
-            ("sim.solver.dt", Box::new(|c| c.sim.solver.dt = 0.0)),
-            ("cube.mass", Box::new(|c| c.sim.cube.mass = 0.0)),
+            ("physics.solver.dt", Box::new(|c| c.physics.solver.dt = 0.0)),
+            ("task.cube.mass", Box::new(|c| pnp(c).cube.mass = 0.0)),
+            (
+                "task.platform.friction",
+                Box::new(|c| pnp(c).platform.friction = -1.0),
+            ),
+            (
+                "robot.motors.damping",
+                Box::new(|c| c.robot.motors.damping = f64::NAN),
+            ),
         ];
         for (field, mutate) in cases {
             let mut config = EnvConfig::default();
@@ -674,14 +699,29 @@ mod tests {
     }
 
     #[test]
+    fn a_task_without_a_cube_refuses_cube_randomisation() {
+        let mut config = EnvConfig::for_task(TaskKind::Reach);
+        config.randomization.cube_mass = Some([0.05, 0.2]);
+        match config.validate() {
+            Err(Error::InvalidConfig { field, reason }) => {
+                assert_eq!(field, "randomization.cube_mass");
+                assert!(reason.contains("reach"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(config.cube().is_none() && config.platform().is_none());
+    }
+
+    #[test]
     fn json_round_trip_and_unknown_keys() {
         let config = EnvConfig::from_json(
-            r#"{"control_mode": "joints", "reward_type": "dense", "sim": {"cube": {"mass": 0.2}}}"#,
+            r#"{"control_mode": "joints", "reward_type": "dense",
+                "task": {"name": "pick_and_place", "cube": {"mass": 0.2}}}"#,
         )
         .unwrap();
         assert_eq!(config.control_mode, ControlMode::Joints);
         assert_eq!(config.reward_type, RewardType::Dense);
-        assert_eq!(config.sim.cube.mass, 0.2);
+        assert_eq!(config.cube().unwrap().mass, 0.2);
         let text = serde_json::to_string(&config).unwrap();
         assert_eq!(EnvConfig::from_json(&text).unwrap(), config);
         let err = EnvConfig::from_json(r#"{"episode_length": 10}"#).unwrap_err();

@@ -306,12 +306,14 @@ pub(crate) struct CubeProperties {
 impl CubeProperties {
     /// The properties from three uniform draws in `[0, 1)`: each the configured value unless
     /// `randomization` gives it a range.
-    pub(crate) fn draw(config: &crate::task::EnvConfig, u: [f64; 3]) -> Self {
+    pub(crate) fn draw(
+        cube: &crate::config::CubeConfig,
+        r: &crate::task::config::Randomization,
+        u: [f64; 3],
+    ) -> Self {
         let pick = |range: Option<[f64; 2]>, default: f64, u: f64| {
             range.map_or(default, |r| r[0] + (r[1] - r[0]) * u)
         };
-        let r = &config.randomization;
-        let cube = &config.sim.cube;
         Self {
             size: pick(r.cube_size, cube.size, u[0]),
             mass: pick(r.cube_mass, cube.mass, u[1]),

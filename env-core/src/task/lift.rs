@@ -24,10 +24,13 @@ use super::config::{validate_range, Range, Region};
 use super::episode::{cube_orientation, CubeProperties, CUBE_REGION, CUBE_YAW_RANGE};
 use super::registry::{TaskDescriptor, TaskSpec};
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use crate::config::CubeConfig;
 use crate::error::Result;
-use crate::physics::{BodyState, Scene, Simulation};
+use crate::physics::{BodyState, ObjectSpec, Scene, Simulation};
 use crate::task::observation::InfoField;
-use crate::task::pick_and_place::{term_field, PickAndPlace, IS_GRASPED, IS_LIFTED};
+use crate::task::pick_and_place::{
+    term_field, PickAndPlace, PickAndPlaceConfig, IS_GRASPED, IS_LIFTED,
+};
 use crate::task::reward::cube_terms::{CARRY, GRASP, LIFT, REACH};
 
 /// The task's own info entries.
@@ -44,6 +47,8 @@ const INFO_FIELDS: [InfoField; 6] = [
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LiftConfig {
+    /// The cube (`sim.cube` before 0.2).
+    pub cube: CubeConfig,
     /// Where the cube's centre starts, on the floor (`pick_region` before 0.2).
     pub cube_region: Region,
     /// Range of the cube's start yaw (rad).
@@ -56,6 +61,7 @@ pub struct LiftConfig {
 impl Default for LiftConfig {
     fn default() -> Self {
         Self {
+            cube: CubeConfig::default(),
             cube_region: CUBE_REGION,
             cube_yaw_range: CUBE_YAW_RANGE,
             goal_height: [0.05, 0.25],
@@ -88,11 +94,21 @@ impl TaskSpec for Lift {
         validate_range("task.goal_height", section.goal_height, 0.0)
     }
 
+    fn cube(section: &LiftConfig) -> Option<&CubeConfig> {
+        Some(&section.cube)
+    }
+
     fn build(section: &LiftConfig, config: &EnvConfig) -> Self {
+        // Pick-and-place's observation, predicates and reward with this section's cube (its
+        // `lift` term keeps pick-and-place's default platform height as its scale).
+        let as_pick_and_place = PickAndPlaceConfig {
+            cube: section.cube.clone(),
+            ..PickAndPlaceConfig::default()
+        };
         Self {
             section: section.clone(),
             config: config.clone(),
-            cube_task: PickAndPlace::cube_task(&Default::default(), config, &Self::DESCRIPTOR),
+            cube_task: PickAndPlace::cube_task(&as_pick_and_place, config, &Self::DESCRIPTOR),
         }
     }
 }
@@ -111,11 +127,15 @@ impl Task for Lift {
         &Self::DESCRIPTOR
     }
 
-    fn scene(&self, config: &EnvConfig) -> Scene {
-        // The tutorial's cube, without the platform.
+    fn scene(&self, _config: &EnvConfig) -> Scene {
+        // The section's cube, without the platform.
         Scene {
-            platform: false,
-            ..Scene::tutorial(&config.sim)
+            platform: None,
+            objects: vec![ObjectSpec::cube(
+                "cube",
+                &self.section.cube,
+                Scene::TUTORIAL_CUBE_POSITION,
+            )],
         }
     }
 
@@ -148,7 +168,11 @@ impl Task for Lift {
         let size_u = draw();
         let mass_u = draw();
         let friction_u = draw();
-        let properties = CubeProperties::draw(config, [size_u, mass_u, friction_u]);
+        let properties = CubeProperties::draw(
+            &self.section.cube,
+            &config.randomization,
+            [size_u, mass_u, friction_u],
+        );
         let cube = properties.resting(
             self.cube_task.cube(),
             cube_xy,

@@ -13,6 +13,7 @@
 pub mod config;
 pub mod episode;
 pub mod lift;
+pub mod migrate;
 pub mod observation;
 pub mod pick_and_place;
 pub mod push;
@@ -28,6 +29,7 @@ pub use episode::{
     EpisodeStart, ObjectStart, ResetOptions, StepInfo, TaskInfo, Transition, TASK_INFO_CAPACITY,
 };
 pub use lift::{Lift, LiftConfig};
+pub use migrate::{Deprecation, LEGACY_KEYS_REMOVED_IN};
 pub use observation::{
     info_field, InfoField, InfoType, InfoValue, ObservationLayout, Slot, SlotSpec,
     COMMON_INFO_FIELDS,
@@ -35,15 +37,13 @@ pub use observation::{
 pub use pick_and_place::{PickAndPlace, PickAndPlaceConfig};
 pub use push::{Push, PushConfig};
 pub use reach::{Reach, ReachConfig};
-pub use registry::{
-    make_task, Deprecation, TaskConfig, TaskDescriptor, TaskKind, TaskSpec, LEGACY_KEYS_REMOVED_IN,
-};
+pub use registry::{make_task, TaskConfig, TaskDescriptor, TaskKind, TaskSpec};
 pub use reward::{RewardContext, RewardFunction, RewardTerm, RewardTerms, RewardWeights};
 pub use stack::{Stack, StackConfig};
 
 use crate::error::Result;
 use crate::physics::{BodyState, Scene, Simulation};
-use crate::robot::Robot;
+use crate::robot::RobotSpec;
 
 /// What the task says about the current state.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -65,7 +65,7 @@ pub struct View<'a> {
     /// The world.
     pub sim: &'a Simulation,
     /// The robot.
-    pub robot: &'a Robot,
+    pub robot: &'a RobotSpec,
     /// The observation just written (flat layout).
     pub observation: &'a [f32],
     /// Where everything sits in it.

@@ -93,7 +93,7 @@ impl ObservationLayout {
     /// The layout of the environments `config` builds, without building one.
     pub fn for_config(config: &crate::task::EnvConfig) -> crate::Result<Self> {
         config.validate()?;
-        let robot = crate::robot::Robot::new(&config.sim_config()?)?;
+        let robot = crate::robot::RobotSpec::new(&config.sim_config()?)?;
         let task = crate::task::make_task(config);
         Ok(Self::new(
             robot.movable_joints().len(),

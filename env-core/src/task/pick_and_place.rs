@@ -46,8 +46,9 @@ use super::episode::{
 use super::registry::{TaskDescriptor, TaskSpec};
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::config::invalid;
+use crate::config::{CubeConfig, PlatformConfig};
 use crate::error::Result;
-use crate::physics::{BodyState, ObjectId, Scene, Simulation};
+use crate::physics::{BodyState, ObjectId, ObjectSpec, Scene, Simulation};
 use crate::task::episode::TaskInfo;
 use crate::task::observation::{info_field, InfoField, InfoType};
 use crate::task::reward::cube_terms::{CARRY, GRASP, LIFT, PLACE, REACH, RELEASE};
@@ -179,6 +180,10 @@ const GOAL_DIM: usize = 3;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PickAndPlaceConfig {
+    /// The cube (`sim.cube` before 0.2).
+    pub cube: CubeConfig,
+    /// The platform the cube is placed on (`sim.platform` before 0.2).
+    pub platform: PlatformConfig,
     /// Where the cube's centre starts, on the floor clear of the platform (`pick_region`
     /// before 0.2).
     pub cube_region: Region,
@@ -195,6 +200,8 @@ pub struct PickAndPlaceConfig {
 impl Default for PickAndPlaceConfig {
     fn default() -> Self {
         Self {
+            cube: CubeConfig::default(),
+            platform: PlatformConfig::default(),
             cube_region: CUBE_REGION,
             cube_yaw_range: CUBE_YAW_RANGE,
             goal_region: PLATFORM_GOAL_REGION,
@@ -239,7 +246,20 @@ impl TaskSpec for PickAndPlace {
                 format!("must be in [0, 1], got {p}"),
             ));
         }
-        config.validate_platform_regions(&section.cube_region, &section.goal_region)
+        config.validate_platform_regions(
+            &section.platform,
+            &section.cube,
+            &section.cube_region,
+            &section.goal_region,
+        )
+    }
+
+    fn cube(section: &PickAndPlaceConfig) -> Option<&CubeConfig> {
+        Some(&section.cube)
+    }
+
+    fn platform(section: &PickAndPlaceConfig) -> Option<&PlatformConfig> {
+        Some(&section.platform)
     }
 
     fn build(section: &PickAndPlaceConfig, config: &EnvConfig) -> Self {
@@ -296,8 +316,15 @@ impl Task for PickAndPlace {
         self.descriptor
     }
 
-    fn scene(&self, config: &EnvConfig) -> Scene {
-        Scene::tutorial(&config.sim)
+    fn scene(&self, _config: &EnvConfig) -> Scene {
+        Scene {
+            platform: Some(self.section.platform.clone()),
+            objects: vec![ObjectSpec::cube(
+                "cube",
+                &self.section.cube,
+                Scene::TUTORIAL_CUBE_POSITION,
+            )],
+        }
     }
 
     fn bind(&mut self, sim: &Simulation) -> Result<()> {
@@ -331,9 +358,13 @@ impl Task for PickAndPlace {
         let size_u = draw();
         let mass_u = draw();
         let friction_u = draw();
-        let properties = CubeProperties::draw(config, [size_u, mass_u, friction_u]);
+        let properties = CubeProperties::draw(
+            &section.cube,
+            &config.randomization,
+            [size_u, mass_u, friction_u],
+        );
         let size = properties.size;
-        let platform_top = config.sim.platform.top_center[2];
+        let platform_top = section.platform.top_center[2];
         let mut goal = Vector3::new(goal_xy[0], goal_xy[1], platform_top + size / 2.0);
         if air_u < section.goal_air_probability {
             let [low, high] = section.goal_air_height;
@@ -375,7 +406,7 @@ impl Task for PickAndPlace {
         let reach_distance = norm(&obs[l.task_slot(RELATIVE_POSITION)]);
         let cube_z = obs[l.achieved_goal()][2] as f64;
         let (size, _, _) = view.sim.object_properties(cube);
-        let platform_height = self.config.sim.platform.top_center[2];
+        let platform_height = self.section.platform.top_center[2];
         let is_grasped = touch.finger_forces.iter().all(|&f| f >= t.grasp_force);
         let lift = if platform_height > 0.0 {
             ((cube_z - size / 2.0) / platform_height).clamp(0.0, 1.0)

@@ -53,10 +53,13 @@ use super::config::{Range, Region};
 use super::episode::{cube_orientation, CubeProperties, CUBE_REGION, CUBE_YAW_RANGE};
 use super::registry::{TaskDescriptor, TaskSpec};
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use crate::config::CubeConfig;
 use crate::error::Result;
-use crate::physics::{BodyState, Scene, Simulation};
+use crate::physics::{BodyState, ObjectSpec, Scene, Simulation};
 use crate::task::observation::InfoField;
-use crate::task::pick_and_place::{term_field, PickAndPlace, IS_GRASPED, IS_LIFTED};
+use crate::task::pick_and_place::{
+    term_field, PickAndPlace, PickAndPlaceConfig, IS_GRASPED, IS_LIFTED,
+};
 use crate::task::reward::cube_terms::{CARRY, REACH, RELEASE};
 
 /// The task's own info entries.
@@ -72,6 +75,8 @@ const INFO_FIELDS: [InfoField; 5] = [
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PushConfig {
+    /// The cube (`sim.cube` before 0.2).
+    pub cube: CubeConfig,
     /// Where the cube's centre starts, on the floor (`pick_region` before 0.2).
     pub cube_region: Region,
     /// Range of the cube's start yaw (rad).
@@ -85,6 +90,7 @@ pub struct PushConfig {
 impl Default for PushConfig {
     fn default() -> Self {
         Self {
+            cube: CubeConfig::default(),
             cube_region: CUBE_REGION,
             cube_yaw_range: CUBE_YAW_RANGE,
             goal_region: Region {
@@ -122,11 +128,21 @@ impl TaskSpec for Push {
         section.goal_region.validate("task.goal_region")
     }
 
+    fn cube(section: &PushConfig) -> Option<&CubeConfig> {
+        Some(&section.cube)
+    }
+
     fn build(section: &PushConfig, config: &EnvConfig) -> Self {
+        // Pick-and-place's observation, predicates and reward with this section's cube (its
+        // `lift` term keeps pick-and-place's default platform height as its scale).
+        let as_pick_and_place = PickAndPlaceConfig {
+            cube: section.cube.clone(),
+            ..PickAndPlaceConfig::default()
+        };
         Self {
             section: section.clone(),
             config: config.clone(),
-            cube_task: PickAndPlace::cube_task(&Default::default(), config, &Self::DESCRIPTOR),
+            cube_task: PickAndPlace::cube_task(&as_pick_and_place, config, &Self::DESCRIPTOR),
         }
     }
 }
@@ -145,11 +161,15 @@ impl Task for Push {
         &Self::DESCRIPTOR
     }
 
-    fn scene(&self, config: &EnvConfig) -> Scene {
-        // The tutorial's cube, without the platform.
+    fn scene(&self, _config: &EnvConfig) -> Scene {
+        // The section's cube, without the platform.
         Scene {
-            platform: false,
-            ..Scene::tutorial(&config.sim)
+            platform: None,
+            objects: vec![ObjectSpec::cube(
+                "cube",
+                &self.section.cube,
+                Scene::TUTORIAL_CUBE_POSITION,
+            )],
         }
     }
 
@@ -182,7 +202,11 @@ impl Task for Push {
         let size_u = draw();
         let mass_u = draw();
         let friction_u = draw();
-        let properties = CubeProperties::draw(config, [size_u, mass_u, friction_u]);
+        let properties = CubeProperties::draw(
+            &self.section.cube,
+            &config.randomization,
+            [size_u, mass_u, friction_u],
+        );
         let cube = properties.resting(
             self.cube_task.cube(),
             cube_xy,
@@ -246,7 +270,7 @@ mod tests {
             task.draw_episode(&mut rng, &ResetOptions::default(), &mut start);
             let cube = start.objects[0].position;
             let goal = Vector3::from_column_slice(&start.goal);
-            assert_eq!(goal.z, config.sim.cube.size / 2.0);
+            assert_eq!(goal.z, CubeConfig::default().size / 2.0);
             assert_eq!(cube.z, goal.z);
             assert!((goal - cube).norm() >= config.success_threshold);
         }

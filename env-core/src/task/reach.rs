@@ -140,7 +140,7 @@ impl Task for Reach {
 
     fn scene(&self, _config: &EnvConfig) -> Scene {
         Scene {
-            platform: false,
+            platform: None,
             objects: Vec::new(),
         }
     }

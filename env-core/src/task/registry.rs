@@ -14,7 +14,7 @@ use super::config::EnvConfig;
 use super::observation::InfoField;
 use super::reward::RewardTerm;
 use super::Task;
-use crate::config::invalid;
+use crate::config::{CubeConfig, PlatformConfig};
 use crate::error::Result;
 
 /// The static facts of a task, the same for every configuration.
@@ -74,8 +74,19 @@ pub trait TaskSpec: Task + Sized + 'static {
     const LEGACY_KEYS: &'static [(&'static str, &'static str)] = &[];
 
     /// Checks `section` against the whole configuration; errors name the field as
-    /// `task.<field>`.
+    /// `task.<field>`. (The section's cube and platform are checked before this is called.)
     fn validate(section: &Self::Config, config: &EnvConfig) -> Result<()>;
+
+    /// The section's cube (its `cube` field), for tasks that move one: the size, mass and
+    /// friction every cube of the task starts from (`randomization` may draw them instead).
+    fn cube(_section: &Self::Config) -> Option<&CubeConfig> {
+        None
+    }
+
+    /// The section's platform (its `platform` field), for tasks whose scene has one.
+    fn platform(_section: &Self::Config) -> Option<&PlatformConfig> {
+        None
+    }
 
     /// The task as `section` and `config` set it up.
     fn build(section: &Self::Config, config: &EnvConfig) -> Self;
@@ -105,7 +116,7 @@ macro_rules! tasks {
                 }
             }
 
-            fn legacy_keys(self) -> &'static [(&'static str, &'static str)] {
+            pub(crate) fn legacy_keys(self) -> &'static [(&'static str, &'static str)] {
                 match self {
                     $(TaskKind::$variant => <$task as TaskSpec>::LEGACY_KEYS),*
                 }
@@ -138,8 +149,29 @@ macro_rules! tasks {
                 }
             }
 
-            /// Checks the section against the whole configuration.
+            /// The section's cube, for tasks that move one.
+            pub fn cube(&self) -> Option<&CubeConfig> {
+                match self {
+                    $(TaskConfig::$variant(section) => <$task as TaskSpec>::cube(section)),*
+                }
+            }
+
+            /// The section's platform, for tasks whose scene has one.
+            pub fn platform(&self) -> Option<&PlatformConfig> {
+                match self {
+                    $(TaskConfig::$variant(section) => <$task as TaskSpec>::platform(section)),*
+                }
+            }
+
+            /// Checks the section (its cube and platform first) against the whole
+            /// configuration.
             pub fn validate(&self, config: &EnvConfig) -> Result<()> {
+                if let Some(cube) = self.cube() {
+                    cube.validate("task.cube")?;
+                }
+                if let Some(platform) = self.platform() {
+                    platform.validate("task.platform")?;
+                }
                 match self {
                     $(TaskConfig::$variant(section) => <$task as TaskSpec>::validate(section, config)),*
                 }
@@ -152,7 +184,7 @@ macro_rules! tasks {
                 }
             }
 
-            fn fields(&self) -> serde_json::Result<serde_json::Value> {
+            pub(crate) fn fields(&self) -> serde_json::Result<serde_json::Value> {
                 match self {
                     $(TaskConfig::$variant(section) => serde_json::to_value(section)),*
                 }
@@ -188,7 +220,7 @@ impl TaskKind {
     }
 
     /// The names of every task, for error messages.
-    fn names() -> String {
+    pub(crate) fn names() -> String {
         Self::ALL
             .iter()
             .map(|t| format!("{:?}", t.as_str()))
@@ -289,182 +321,6 @@ impl<'de> Deserialize<'de> for TaskConfig {
     }
 }
 
-/// A note about a configuration read with keys from before 0.2 (see
-/// [`EnvConfig::from_json_with_notes`]).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Deprecation {
-    /// The old key.
-    pub key: String,
-    /// What to write instead, or why it is ignored; with the removal version.
-    pub message: String,
-}
-
-/// The version that stops reading the keys of [`TaskSpec::LEGACY_KEYS`].
-pub const LEGACY_KEYS_REMOVED_IN: &str = "0.3.0";
-
-/// Moves the top-level keys of configurations before 0.2 (`pick_region`, `reach_goal_region`,
-/// ...) into the task section of `document`, noting each; keys of another task are dropped
-/// with a note when they hold that key's old default, and are an error otherwise (they would
-/// silently do nothing).
-pub(crate) fn migrate_legacy_keys(document: &mut serde_json::Value) -> Result<Vec<Deprecation>> {
-    let serde_json::Value::Object(map) = document else {
-        return Ok(Vec::new());
-    };
-    let is_legacy = |key: &str| {
-        TaskKind::ALL
-            .iter()
-            .any(|t| t.legacy_keys().iter().any(|(old, _)| *old == key))
-    };
-    let legacy: Vec<String> = map.keys().filter(|k| is_legacy(k)).cloned().collect();
-    if legacy.is_empty() {
-        return Ok(Vec::new());
-    }
-    // The section as given (a name or a map), as a map with its name.
-    let mut section = match map.remove("task") {
-        None => serde_json::Map::new(),
-        Some(serde_json::Value::String(name)) => {
-            serde_json::Map::from_iter([("name".to_string(), serde_json::Value::String(name))])
-        }
-        Some(serde_json::Value::Object(section)) => section,
-        Some(other) => {
-            return Err(invalid(
-                "task",
-                format!("must be a name or a section, got {other}"),
-            ))
-        }
-    };
-    let name = match section.get("name") {
-        None => TaskKind::default().as_str().to_string(),
-        Some(serde_json::Value::String(name)) => name.clone(),
-        Some(other) => {
-            return Err(invalid(
-                "task.name",
-                format!("must be a task name, got {other}"),
-            ))
-        }
-    };
-    section.insert("name".into(), name.clone().into());
-    let kind = TaskKind::from_name(&name).ok_or_else(|| {
-        invalid(
-            "task",
-            format!(
-                "unknown task {name:?}, expected one of {}",
-                TaskKind::names()
-            ),
-        )
-    })?;
-    let mut notes = Vec::new();
-    for key in legacy {
-        let value = map.remove(&key).expect("listed above");
-        if let Some((_, field)) = kind.legacy_keys().iter().find(|(old, _)| *old == key) {
-            if section.contains_key(*field) {
-                return Err(invalid(
-                    &key,
-                    format!("is the old spelling of task.{field}, which is also given: keep one"),
-                ));
-            }
-            section.insert(field.to_string(), value);
-            notes.push(Deprecation {
-                message: format!(
-                    "the top-level option {key:?} is deprecated and will be removed in \
-                     {LEGACY_KEYS_REMOVED_IN}: write it in the task section, \
-                     {{\"task\": {{\"name\": \"{name}\", \"{field}\": ...}}}}"
-                ),
-                key,
-            });
-            continue;
-        }
-        // Another task's key: harmless only if it says what that task's default says.
-        let owner = TaskKind::ALL
-            .iter()
-            .copied()
-            .find_map(|t| {
-                let (_, field) = t.legacy_keys().iter().find(|(old, _)| *old == key)?;
-                let defaults = TaskConfig::defaults(t).fields().ok()?;
-                Some((t, defaults.get(*field).cloned()))
-            })
-            .expect("a legacy key has an owner");
-        if owner.1.as_ref() == Some(&value) {
-            notes.push(Deprecation {
-                message: format!(
-                    "the top-level option {key:?} is deprecated, will be removed in \
-                     {LEGACY_KEYS_REMOVED_IN}, and is ignored here: it configures the {} \
-                     task, and this configuration's task is {name:?}",
-                    owner.0
-                ),
-                key,
-            });
-        } else {
-            return Err(invalid(
-                &key,
-                format!(
-                    "configures the {} task (an option from before 0.2), but this \
-                     configuration's task is {name:?}, which would ignore it",
-                    owner.0
-                ),
-            ));
-        }
-    }
-    map.insert("task".into(), serde_json::Value::Object(section));
-    Ok(notes)
-}
-
-/// The weights of the staged cube reward's terms before 0.2, when every task took all six.
-const LEGACY_WEIGHTS: [(&str, f64); 6] = [
-    ("reach", 1.0),
-    ("grasp", 1.0),
-    ("lift", 1.0),
-    ("carry", 2.0),
-    ("place", 5.0),
-    ("release", 0.0),
-];
-
-/// Drops from `document`'s `reward_weights` the terms the task's reward does not have but
-/// every task took before 0.2, when they hold their old default (a dumped configuration),
-/// noting each; any other value is left for validation to refuse (it would do nothing).
-pub(crate) fn migrate_reward_weights(document: &mut serde_json::Value) -> Result<Vec<Deprecation>> {
-    let kind = match document.get("task") {
-        None => TaskKind::default(),
-        Some(serde_json::Value::String(name)) => match TaskKind::from_name(name) {
-            Some(kind) => kind,
-            None => return Ok(Vec::new()),
-        },
-        Some(serde_json::Value::Object(section)) => {
-            match section
-                .get("name")
-                .and_then(|n| n.as_str())
-                .and_then(TaskKind::from_name)
-            {
-                Some(kind) => kind,
-                None => return Ok(Vec::new()),
-            }
-        }
-        Some(_) => return Ok(Vec::new()),
-    };
-    let Some(serde_json::Value::Object(weights)) = document.get_mut("reward_weights") else {
-        return Ok(Vec::new());
-    };
-    let terms = kind.descriptor().reward_terms;
-    let mut notes = Vec::new();
-    for (name, old_default) in LEGACY_WEIGHTS {
-        if terms.iter().any(|t| t.name == name) {
-            continue;
-        }
-        if weights.get(name).and_then(|v| v.as_f64()) == Some(old_default) {
-            weights.remove(name);
-            notes.push(Deprecation {
-                key: format!("reward_weights.{name}"),
-                message: format!(
-                    "reward_weights.{name} is ignored: the {kind} task's reward has no {name:?} \
-                     term (its weight at the old default is accepted until \
-                     {LEGACY_KEYS_REMOVED_IN}, then it is an error)"
-                ),
-            });
-        }
-    }
-    Ok(notes)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -494,60 +350,6 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("goal_height"), "{err}");
-    }
-
-    #[test]
-    fn keys_from_before_0_2_move_into_the_task_section_with_a_note() {
-        let (config, notes) = EnvConfig::from_json_with_notes(
-            r#"{"task": "reach", "reach_goal_region": [[0.4, -0.1, 0.1], [0.6, 0.1, 0.3]]}"#,
-        )
-        .unwrap();
-        let expected = EnvConfig::from_json(
-            r#"{"task": {"name": "reach", "goal_region": [[0.4, -0.1, 0.1], [0.6, 0.1, 0.3]]}}"#,
-        )
-        .unwrap();
-        assert_eq!(config, expected);
-        assert_eq!(notes.len(), 1);
-        assert_eq!(notes[0].key, "reach_goal_region");
-        assert!(notes[0].message.contains("0.3.0"), "{}", notes[0].message);
-        // Without a task: the default one's keys.
-        let (config, notes) =
-            EnvConfig::from_json_with_notes(r#"{"goal_air_probability": 0.5}"#).unwrap();
-        let TaskConfig::PickAndPlace(section) = &config.task else {
-            panic!("{config:?}")
-        };
-        assert_eq!(section.goal_air_probability, 0.5);
-        assert_eq!(notes.len(), 1);
-        // Another task's key at its old default: dropped with a note; otherwise an error.
-        let (config, notes) =
-            EnvConfig::from_json_with_notes(r#"{"task": "push", "lift_height": [0.05, 0.25]}"#)
-                .unwrap();
-        assert_eq!(config, EnvConfig::for_task(TaskKind::Push));
-        assert!(notes[0].message.contains("ignored"), "{}", notes[0].message);
-        let err =
-            EnvConfig::from_json(r#"{"task": "push", "lift_height": [0.1, 0.2]}"#).unwrap_err();
-        assert!(err.to_string().contains("lift_height"), "{err}");
-        // Both spellings at once.
-        let err = EnvConfig::from_json(
-            r#"{"task": {"name": "lift", "goal_height": [0.1, 0.2]}, "lift_height": [0.1, 0.2]}"#,
-        )
-        .unwrap_err();
-        assert!(err.to_string().contains("keep one"), "{err}");
-        // The old default document (every key of 0.1.0) still reads, for every task.
-        for task in TaskKind::ALL {
-            let old = format!(
-                r#"{{"task": "{task}", "pick_region": {{"low": [0.4, -0.2], "high": [0.6, 0.0]}},
-                "cube_yaw_range": [-0.25, 0.25],
-                "goal_region": {{"low": [0.42, 0.22], "high": [0.58, 0.38]}},
-                "goal_air_probability": 0.0, "goal_air_height": [0.05, 0.2],
-                "reach_goal_region": [[0.35, -0.25, 0.1], [0.65, 0.25, 0.4]],
-                "lift_height": [0.05, 0.25],
-                "push_goal_region": {{"low": [0.4, 0.05], "high": [0.6, 0.25]}}}}"#
-            );
-            let (config, notes) = EnvConfig::from_json_with_notes(&old).unwrap();
-            assert_eq!(config, EnvConfig::for_task(*task), "{task}");
-            assert_eq!(notes.len(), 8, "{task}");
-        }
     }
 
     #[test]

@@ -55,6 +55,7 @@ use super::episode::{
 };
 use super::registry::{TaskDescriptor, TaskSpec};
 use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use crate::config::{CubeConfig, PlatformConfig};
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, ObjectSpec, ObjectTouch, Scene, Simulation};
 use crate::task::config::RewardType;
@@ -159,6 +160,10 @@ const START_GAP: f64 = 0.1;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct StackConfig {
+    /// The two cubes, alike (`sim.cube` before 0.2).
+    pub cube: CubeConfig,
+    /// The platform they are stacked on (`sim.platform` before 0.2).
+    pub platform: PlatformConfig,
     /// Where the cubes' centres start, on the floor clear of the platform, one in each half
     /// along y (`pick_region` before 0.2).
     pub cube_region: Region,
@@ -171,6 +176,8 @@ pub struct StackConfig {
 impl Default for StackConfig {
     fn default() -> Self {
         Self {
+            cube: CubeConfig::default(),
+            platform: PlatformConfig::default(),
             cube_region: CUBE_REGION,
             cube_yaw_range: CUBE_YAW_RANGE,
             goal_region: PLATFORM_GOAL_REGION,
@@ -203,7 +210,20 @@ impl TaskSpec for Stack {
     fn validate(section: &StackConfig, config: &EnvConfig) -> Result<()> {
         EnvConfig::validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
         section.goal_region.validate("task.goal_region")?;
-        config.validate_platform_regions(&section.cube_region, &section.goal_region)
+        config.validate_platform_regions(
+            &section.platform,
+            &section.cube,
+            &section.cube_region,
+            &section.goal_region,
+        )
+    }
+
+    fn cube(section: &StackConfig) -> Option<&CubeConfig> {
+        Some(&section.cube)
+    }
+
+    fn platform(section: &StackConfig) -> Option<&PlatformConfig> {
+        Some(&section.platform)
     }
 
     fn build(section: &StackConfig, config: &EnvConfig) -> Self {
@@ -272,14 +292,14 @@ impl Task for Stack {
         &Self::DESCRIPTOR
     }
 
-    fn scene(&self, config: &EnvConfig) -> Scene {
-        let sim = &config.sim;
-        let [x, y, z] = sim.cube.position;
+    fn scene(&self, _config: &EnvConfig) -> Scene {
+        let cube = &self.section.cube;
+        let [x, y, z] = Scene::TUTORIAL_CUBE_POSITION;
         Scene {
-            platform: true,
+            platform: Some(self.section.platform.clone()),
             objects: vec![
-                ObjectSpec::cube("cube1", sim, [x, y, z]),
-                ObjectSpec::cube("cube2", sim, [x, y + 2.0 * sim.cube.size, z]),
+                ObjectSpec::cube("cube1", cube, [x, y, z]),
+                ObjectSpec::cube("cube2", cube, [x, y + 2.0 * cube.size, z]),
             ],
         }
     }
@@ -316,7 +336,11 @@ impl Task for Stack {
         let size_u = draw();
         let mass_u = draw();
         let friction_u = draw();
-        let properties = CubeProperties::draw(config, [size_u, mass_u, friction_u]);
+        let properties = CubeProperties::draw(
+            &self.section.cube,
+            &config.randomization,
+            [size_u, mass_u, friction_u],
+        );
         let size = properties.size;
         // The two halves of the pick region along y, a gap between them.
         let region = self.section.cube_region;
@@ -340,7 +364,7 @@ impl Task for Stack {
             (high_half(first_u), low_half(second_u))
         };
         let yaw = |u: f64| cube_orientation(self.section.cube_yaw_range, u, options);
-        let platform_top = config.sim.platform.top_center[2];
+        let platform_top = self.section.platform.top_center[2];
         let bottom_goal = options.goal.map_or(
             Vector3::new(goal_xy[0], goal_xy[1], platform_top + size / 2.0),
             Vector3::from,

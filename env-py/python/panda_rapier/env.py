@@ -55,7 +55,7 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     are motors with the Panda's torque limits that track the commanded targets against
     gravity, inertia and contacts. ``arm="kinematic"`` (Fetch-style; about a fifth fewer
     instructions per step than the dynamic arm) places the arm's links along the commanded joint
-    trajectory (velocity limits, ``sim.motors.kinematic_acceleration``), so they push whatever
+    trajectory (velocity limits, ``robot.motors.kinematic_acceleration``), so they push whatever
     they touch with unlimited force; the gripper (hand and fingers, with the same coupled
     force-limited drive) and the cube stay fully dynamic and the grasp is still held by
     friction alone. A motion that would take a kinematic arm link into the floor or the
@@ -116,7 +116,7 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     Every field of the configuration (see the core's ``EnvConfig``) as a keyword argument,
     nested ones as dicts: ``arm``, ``control_mode``, ``reward_type``, ``max_episode_steps``,
     ``control_frequency``, ``success_threshold``, ``terminate_on_success``, ``task``,
-    ``randomization``, ``sim``, ... Unknown or invalid values raise
+    ``randomization``, ``physics``, ``robot``, ... Unknown or invalid values raise
     :class:`~panda_rapier.ConfigError`.
 
     ## Rendering

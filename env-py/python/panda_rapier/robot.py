@@ -41,7 +41,8 @@ class Robot:
         (N m or N), ``max_velocity``, ``axis``, ``parent_link``, ``child_link``, ``dof`` (entry
         of ``q`` driven by the joint, or None), ``mimic`` (index of the joint it copies) and the
         passive ``damping`` (N m s/rad or N s/m) and ``friction`` (N m or N) the simulation
-        applies (the URDF's ``<dynamics>``, or ``sim.joint_damping`` / ``joint_friction``)."""
+        applies (the URDF's ``<dynamics>``, or the ``robot`` options ``joint_damping`` /
+        ``joint_friction``)."""
         return list(self._native.joint_info())
 
     def link_names(self) -> list[str]:

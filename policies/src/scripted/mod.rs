@@ -32,7 +32,9 @@ use panda_rapier_core::task::observation::{
     GRIPPER_WIDTH, JOINT_POSITIONS, JOINT_VELOCITIES, TCP_POSITION, TCP_VELOCITY,
 };
 use panda_rapier_core::task::{make_task, ControlMode, EnvConfig, ObservationLayout, TaskKind};
-use panda_rapier_core::{Controller, Error, IkOptions, IkWorkspace, Result, Robot, RobotModel};
+use panda_rapier_core::{
+    Controller, CubeConfig, Error, IkOptions, IkWorkspace, Result, RobotModel, RobotSpec,
+};
 
 /// What an expert is doing, recognised from the observation: a name from an open set (each
 /// expert's module adds its phases as constants, `Phase::CARRY`, `Phase::PUSH`, ...).
@@ -231,7 +233,7 @@ impl ScriptedPolicy {
         config.validate()?;
         // The robot's facts (kinematics, base pose, start pose, joint order) exactly as the
         // environment sees them, without building a world.
-        let robot = Robot::new(&config.sim_config()?)?;
+        let robot = RobotSpec::new(&config.sim_config()?)?;
         let model = robot.model().clone();
         let movable = robot.movable_joints();
         let dof_slots = model
@@ -253,7 +255,7 @@ impl ScriptedPolicy {
                 params,
                 slots: Slots::new(&layout),
                 observation_dim: layout.flat_dim(),
-                cube_half: config.sim.cube.size / 2.0,
+                cube_half: config.cube().map_or(CubeConfig::default().size, |c| c.size) / 2.0,
                 open_width: robot.gripper().max_width,
                 hand_down: *robot.hand_down(),
                 arm_dof_count: robot.arm_dofs().len(),
@@ -406,6 +408,7 @@ impl ScriptedPolicy {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use panda_rapier_core::PlatformConfig;
 
     fn policy() -> ScriptedPolicy {
         ScriptedPolicy::new(&EnvConfig::default()).unwrap()
@@ -445,7 +448,7 @@ mod tests {
     #[test]
     fn a_cube_lifted_off_the_floor_clears_it_and_one_level_with_the_platform_does_not() {
         let policy = policy().cx;
-        let p = EnvConfig::default().sim.platform;
+        let p = PlatformConfig::default();
         let floor_cube = Vector3::new(0.5, -0.1, 0.05);
         assert!(policy.clears_surfaces(floor_cube, 0.0, 0.05));
         let near_platform = Vector3::new(p.top_center[0], p.top_center[1], p.top_center[2]);
