@@ -364,10 +364,12 @@ impl EnvConfig {
         Ok((config, notes))
     }
 
-    /// The default configuration of `task`.
+    /// The default configuration of `task`, with its registered episode length
+    /// ([`TaskDescriptor::episode_steps`], as its Gymnasium ids have).
     pub fn for_task(task: TaskKind) -> Self {
         Self {
             task: task.into(),
+            max_episode_steps: Some(task.descriptor().episode_steps),
             ..Self::default()
         }
     }

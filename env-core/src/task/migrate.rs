@@ -405,6 +405,14 @@ mod tests {
     use crate::config::ArmFidelity;
     use crate::task::EnvConfig;
 
+    /// The defaults with `task` (old documents set no episode length: the default 70 steps).
+    fn with_task(task: TaskKind) -> EnvConfig {
+        EnvConfig {
+            task: task.into(),
+            ..EnvConfig::default()
+        }
+    }
+
     #[test]
     fn keys_from_before_0_2_move_into_the_task_section_with_a_note() {
         let (config, notes) = EnvConfig::from_json_with_notes(
@@ -431,7 +439,7 @@ mod tests {
         let (config, notes) =
             EnvConfig::from_json_with_notes(r#"{"task": "push", "lift_height": [0.05, 0.25]}"#)
                 .unwrap();
-        assert_eq!(config, EnvConfig::for_task(TaskKind::Push));
+        assert_eq!(config, with_task(TaskKind::Push));
         assert!(notes[0].message.contains("ignored"), "{}", notes[0].message);
         let err =
             EnvConfig::from_json(r#"{"task": "push", "lift_height": [0.1, 0.2]}"#).unwrap_err();
@@ -454,7 +462,7 @@ mod tests {
                 "push_goal_region": {{"low": [0.4, 0.05], "high": [0.6, 0.25]}}}}"#
             );
             let (config, notes) = EnvConfig::from_json_with_notes(&old).unwrap();
-            assert_eq!(config, EnvConfig::for_task(*task), "{task}");
+            assert_eq!(config, with_task(*task), "{task}");
             assert_eq!(notes.len(), 8, "{task}");
         }
     }
@@ -498,7 +506,7 @@ mod tests {
             r#"{"task": "reach", "sim": {"platform": {"friction": 1.0}, "cube": {"size": 0.05}}}"#,
         )
         .unwrap();
-        assert_eq!(config, EnvConfig::for_task(TaskKind::Reach));
+        assert_eq!(config, with_task(TaskKind::Reach));
         assert_eq!(notes.len(), 2, "{notes:?}");
         let err = EnvConfig::from_json(r#"{"task": "reach", "sim": {"cube": {"mass": 0.3}}}"#)
             .unwrap_err()
@@ -541,7 +549,7 @@ mod tests {
         for &task in TaskKind::ALL {
             let text = format!(r#"{{"task": "{task}", "sim": {old_default}}}"#);
             let (config, notes) = EnvConfig::from_json_with_notes(&text).unwrap();
-            assert_eq!(config, EnvConfig::for_task(task), "{task}");
+            assert_eq!(config, with_task(task), "{task}");
             assert_eq!(notes.len(), 16, "{task}: {notes:?}");
         }
     }

@@ -378,7 +378,11 @@ mod tests {
             assert_eq!(notes.len(), 6 - terms, "{task}");
             assert_eq!(
                 config.resolved(),
-                EnvConfig::for_task(task).resolved(),
+                EnvConfig {
+                    task: task.into(),
+                    ..EnvConfig::default()
+                }
+                .resolved(),
                 "{task}"
             );
         }
