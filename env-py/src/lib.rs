@@ -41,6 +41,7 @@ fn tasks(py: Python<'_>) -> PyResult<Vec<Bound<'_, pyo3::types::PyDict>>> {
             dict.set_item("name", d.name)?;
             dict.set_item("id_stem", d.id_stem)?;
             dict.set_item("episode_steps", d.episode_steps)?;
+            dict.set_item("joint_step", kind.id_joint_step())?;
             dict.set_item("has_platform", d.has_platform)?;
             dict.set_item("has_placed", d.has_placed())?;
             dict.set_item("summary", d.summary)?;

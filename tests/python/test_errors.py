@@ -140,7 +140,7 @@ def test_bad_vector_actions() -> None:
             "task.cube_region",
         ),
         ({"task": {"name": "reach", "goal_height": [0.1, 0.2]}}, "goal_height"),
-        ({"task": "slide"}, "unknown task"),
+        ({"task": "juggle"}, "unknown task"),
         ({"task": {"goal_region": [[0, 0, 0], [1, 1, 1]]}}, "name"),
         ({"task": "push", "lift_height": [0.1, 0.2]}, "lift_height"),
         ({"physics": {"solver": {"dt": 0.0}}}, "physics.solver.dt"),

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from panda_rapier.registration import TASK_NAMES
+
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("sb3_contrib")
 pytest.importorskip("tqdm")
@@ -75,12 +77,14 @@ def test_soak_script_reports_memory_and_speed(tmp_path: Path) -> None:
     report = json.loads((tmp_path / "soak.json").read_text())
     assert report["env_steps"] == 256 and len(report["samples"]) == 2 and report["complete"]
     assert all(s["rss_mib"] > 0 and s["env_steps_per_s"] > 0 for s in report["samples"])
-    # The whole family on both arms: 20 VecEnvs alive at once, stepped in turn.
+    # The whole family on both arms (every task, both action modes, both arms) alive at
+    # once, stepped in turn.
     run(ROOT / "examples/soak.py", "--env-id", "family", "--arm", "dynamic", "kinematic",
         "--steps", "320", "--every", "160", "--n-envs", "2", "--no-progress",
         "--out", tmp_path / "family")  # fmt: skip
     report = json.loads((tmp_path / "family" / "soak.json").read_text())
-    assert len(report["per_id_and_arm"]) == 20 and report["complete"]
+    family = len(TASK_NAMES) * 2 * 2
+    assert len(report["per_id_and_arm"]) == family and report["complete"]
 
 
 def test_adversarial_pixels_script_counts_every_id(tmp_path: Path) -> None:
@@ -88,7 +92,8 @@ def test_adversarial_pixels_script_counts_every_id(tmp_path: Path) -> None:
               "--image-size", "32", "--no-progress", "--json", tmp_path / "a.json")  # fmt: skip
     assert "total: steps" in out
     report = json.loads((tmp_path / "a.json").read_text())
-    assert len(report["runs"]) == 20  # every task, both action modes, rgb and state+rgb
+    # Every task, both action modes, rgb and state+rgb.
+    assert len(report["runs"]) == len(TASK_NAMES) * 2 * 2
     assert report["total"]["non_finite"] == 0 and report["total"]["bad_images"] == 0
 
 

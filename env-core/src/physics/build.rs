@@ -3,8 +3,8 @@
 
 use nalgebra::Isometry3;
 use rapier3d::dynamics::{
-    FixedJointBuilder, JointAxis, MultibodyDofCoupling, MultibodyIndex, MultibodyJointSet,
-    RigidBodyBuilder, RigidBodyType,
+    CoefficientCombineRule, FixedJointBuilder, JointAxis, MultibodyDofCoupling, MultibodyIndex,
+    MultibodyJointSet, RigidBodyBuilder, RigidBodyType,
 };
 use rapier3d::geometry::{ColliderBuilder, Group, InteractionGroups, MeshConverter};
 use rapier3d::math::Vector;
@@ -73,7 +73,15 @@ impl Simulation {
         let floor_body = world.bodies.insert(RigidBodyBuilder::fixed().build());
         let floor_collider = world.colliders.insert_with_parent(
             ColliderBuilder::halfspace(nalgebra::Unit::new_unchecked(Vector::Z))
-                .friction(config.physics.floor_friction as f32)
+                .friction(
+                    scene
+                        .floor_friction
+                        .unwrap_or(config.physics.floor_friction) as f32,
+                )
+                .friction_combine_rule(match scene.floor_friction {
+                    Some(_) => CoefficientCombineRule::Min,
+                    None => CoefficientCombineRule::Average,
+                })
                 .collision_groups(InteractionGroups::new(
                     STATIC_GROUP,
                     OBJECT_GROUP | ARM_GROUP,

@@ -12,13 +12,20 @@ use super::{BodyState, SceneObject, Simulation};
 use crate::config::{non_negative, positive, CubeConfig, PlatformConfig};
 use crate::error::{ensure_all_finite, Error, Result};
 
-/// The platform and movable objects of a world.
-#[derive(Debug, Clone, PartialEq)]
+/// The platform and movable objects of a world, and the floor they stand on. The default is an
+/// empty world: no platform, no objects, the configured floor (tasks list what they need and
+/// leave the rest to `..Scene::default()`).
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Scene {
     /// The platform, when one stands in the world.
     pub platform: Option<PlatformConfig>,
     /// The movable objects; an object's [`ObjectId`] is its position here.
     pub objects: Vec<ObjectSpec>,
+    /// A slippery floor: its friction coefficient in this world, combined with a touching
+    /// body's by taking the smaller of the two, so every object slides on it as on ice of
+    /// that friction whatever its own. `None`: the configured `physics.floor_friction`,
+    /// averaged with the touching body's (rapier's default rule).
+    pub floor_friction: Option<f64>,
 }
 
 /// One movable object: a cube.
@@ -63,6 +70,7 @@ impl Scene {
                 &CubeConfig::default(),
                 Self::TUTORIAL_CUBE_POSITION,
             )],
+            ..Self::default()
         }
     }
 
@@ -71,6 +79,9 @@ impl Scene {
     pub fn validate(&self) -> Result<()> {
         if let Some(platform) = &self.platform {
             platform.validate("scene.platform")?;
+        }
+        if let Some(friction) = self.floor_friction {
+            non_negative("scene.floor_friction", friction)?;
         }
         for (i, object) in self.objects.iter().enumerate() {
             let field = |what: &str| format!("scene.objects[{i}].{what}");

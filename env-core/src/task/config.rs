@@ -365,12 +365,15 @@ impl EnvConfig {
     }
 
     /// The default configuration of `task`, with its registered episode length
-    /// ([`TaskDescriptor::episode_steps`], as its Gymnasium ids have).
+    /// ([`TaskDescriptor::episode_steps`]) and joint action scale
+    /// ([`TaskKind::id_joint_step`]), as its Gymnasium ids have.
     pub fn for_task(task: TaskKind) -> Self {
+        let defaults = Self::default();
         Self {
             task: task.into(),
             max_episode_steps: Some(task.descriptor().episode_steps),
-            ..Self::default()
+            joint_step: task.id_joint_step().unwrap_or(defaults.joint_step),
+            ..defaults
         }
     }
 

@@ -136,6 +136,7 @@ impl Task for Lift {
                 &self.section.cube,
                 Scene::TUTORIAL_CUBE_POSITION,
             )],
+            ..Scene::default()
         }
     }
 

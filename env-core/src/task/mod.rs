@@ -20,6 +20,7 @@ pub mod push;
 pub mod reach;
 pub mod registry;
 pub mod reward;
+pub mod slide;
 pub mod stack;
 
 use rand_chacha::ChaCha8Rng;

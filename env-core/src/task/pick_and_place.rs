@@ -324,6 +324,7 @@ impl Task for PickAndPlace {
                 &self.section.cube,
                 Scene::TUTORIAL_CUBE_POSITION,
             )],
+            ..Scene::default()
         }
     }
 

@@ -170,6 +170,7 @@ impl Task for Push {
                 &self.section.cube,
                 Scene::TUTORIAL_CUBE_POSITION,
             )],
+            ..Scene::default()
         }
     }
 

@@ -139,10 +139,8 @@ impl Task for Reach {
     }
 
     fn scene(&self, _config: &EnvConfig) -> Scene {
-        Scene {
-            platform: None,
-            objects: Vec::new(),
-        }
+        // An empty world: the robot and the floor.
+        Scene::default()
     }
 
     fn bind(&mut self, _sim: &Simulation) -> Result<()> {

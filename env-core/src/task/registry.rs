@@ -73,6 +73,11 @@ pub trait TaskSpec: Task + Sized + 'static {
     /// `(old key, field of the section)`: read with a deprecation warning until 0.3.
     const LEGACY_KEYS: &'static [(&'static str, &'static str)] = &[];
 
+    /// The joint action scale (`joint_step`, rad per step at action 1.0) of the task's
+    /// `joints` ids where it differs from the default: a task whose expert needs the hand
+    /// faster than 0.05 rad per step moves it.
+    const ID_JOINT_STEP: Option<f64> = None;
+
     /// Checks `section` against the whole configuration; errors name the field as
     /// `task.<field>`. (The section's cube and platform are checked before this is called.)
     fn validate(section: &Self::Config, config: &EnvConfig) -> Result<()>;
@@ -113,6 +118,14 @@ macro_rules! tasks {
             pub fn descriptor(self) -> &'static TaskDescriptor {
                 match self {
                     $(TaskKind::$variant => &<$task as TaskSpec>::DESCRIPTOR),*
+                }
+            }
+
+            /// The `joint_step` of the task's `joints` ids, where it differs from the default
+            /// ([`TaskSpec::ID_JOINT_STEP`]).
+            pub fn id_joint_step(self) -> Option<f64> {
+                match self {
+                    $(TaskKind::$variant => <$task as TaskSpec>::ID_JOINT_STEP),*
                 }
             }
 
@@ -206,6 +219,7 @@ tasks! {
     Lift => crate::task::Lift,
     Stack => crate::task::Stack,
     Push => crate::task::Push,
+    Slide => crate::task::slide::Slide,
 }
 
 impl TaskKind {
@@ -338,7 +352,7 @@ mod tests {
         let text = serde_json::to_string(&long).unwrap();
         assert_eq!(EnvConfig::from_json(&text).unwrap(), long);
         for bad in [
-            r#"{"task": "slide"}"#,
+            r#"{"task": "juggle"}"#,
             r#"{"task": {"goal_region": [[0, 0, 0], [1, 1, 1]]}}"#,
             r#"{"task": {"name": "reach", "goal_height": [0.1, 0.2]}}"#,
             r#"{"task": 3}"#,

@@ -301,6 +301,7 @@ impl Task for Stack {
                 ObjectSpec::cube("cube1", cube, [x, y, z]),
                 ObjectSpec::cube("cube2", cube, [x, y + 2.0 * cube.size, z]),
             ],
+            ..Scene::default()
         }
     }
 

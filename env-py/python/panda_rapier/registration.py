@@ -15,7 +15,8 @@ from ._native import default_config_json, tasks
 MAX_EPISODE_STEPS: int = json.loads(default_config_json())["max_episode_steps"]
 
 #: Every task's static facts, as the core's registry (``env-core/src/task/registry.rs``)
-#: lists them: ``name``, ``id_stem``, ``episode_steps``, ``has_platform``, ``summary`` and
+#: lists them: ``name``, ``id_stem``, ``episode_steps``, ``joint_step`` (of its joints ids, or
+#: None for the default), ``has_platform``, ``summary`` and
 #: ``defaults`` (the JSON of its configuration section's defaults).
 TASKS: tuple[dict[str, Any], ...] = tuple(tasks())
 
@@ -26,11 +27,22 @@ TASK_EPISODE_STEPS: dict[str, int] = {t["name"]: int(t["episode_steps"]) for t i
 #: Id stem of each task, in the order tables list them.
 TASK_NAMES: dict[str, str] = {t["name"]: str(t["id_stem"]) for t in TASKS}
 
+#: The joint action scale of each task's ``joints`` ids where it differs from the default
+#: ``joint_step`` (slide's let-go speed needs 0.1 rad per step).
+TASK_JOINT_STEPS: dict[str, float] = {
+    t["name"]: float(t["joint_step"]) for t in TASKS if t["joint_step"] is not None
+}
+
 _VARIANTS: dict[str, dict[str, Any]] = {
     f"panda_rapier/{name}{dense}-v0": {
         "task": task,
         "control_mode": control,
         "reward_type": reward,
+        **(
+            {"joint_step": TASK_JOINT_STEPS[task]}
+            if control == "joints" and task in TASK_JOINT_STEPS
+            else {}
+        ),
     }
     for task, name in TASK_NAMES.items()
     for control, joints in (("ee", ""), ("joints", "Joints"))
@@ -42,7 +54,8 @@ ENV_IDS: tuple[str, ...] = tuple(_VARIANTS)
 
 
 def variant(env_id: str) -> dict[str, Any]:
-    """What an id fixes: its ``task``, ``control_mode`` and ``reward_type``."""
+    """What an id fixes: its ``task``, ``control_mode`` and ``reward_type`` (and, for the
+    ``joints`` ids of a task that needs another, its ``joint_step``)."""
     from .errors import ConfigError
 
     if env_id not in _VARIANTS:
@@ -55,7 +68,7 @@ def task_id(task: str, control_mode: str = "ee", reward_type: str = "sparse") ->
     reward type: ``task_id("reach", "joints")`` is ``panda_rapier/ReachJoints-v0``."""
     wanted = {"task": task, "control_mode": control_mode, "reward_type": reward_type}
     for env_id, fixed in _VARIANTS.items():
-        if fixed == wanted:
+        if all(fixed[key] == value for key, value in wanted.items()):
             return env_id
     raise KeyError(f"no id for {wanted}")
 

@@ -19,12 +19,14 @@ mod params;
 mod pick_and_place;
 mod push;
 mod reach;
+mod slide;
 mod stack;
 
 pub use params::ScriptedParams;
 pub use pick_and_place::PickAndPlaceExpert;
 pub use push::PushExpert;
 pub use reach::ReachExpert;
+pub use slide::SlideExpert;
 pub use stack::StackExpert;
 
 use nalgebra::{Isometry3, Matrix3, UnitQuaternion, Vector3};
@@ -69,6 +71,7 @@ pub fn expert_for(task: TaskKind) -> &'static dyn Expert {
         TaskKind::Lift => &PickAndPlaceExpert,
         TaskKind::Stack => &StackExpert,
         TaskKind::Push => &PushExpert,
+        TaskKind::Slide => &SlideExpert,
     }
 }
 
@@ -135,6 +138,7 @@ pub struct Decision {
 pub struct ExpertContext {
     config: EnvConfig,
     params: ScriptedParams,
+    layout: ObservationLayout,
     slots: Slots,
     observation_dim: usize,
     cube_half: f64,
@@ -152,6 +156,12 @@ impl ExpertContext {
     /// The parameters in use.
     pub fn params(&self) -> &ScriptedParams {
         &self.params
+    }
+
+    /// Where the observation slot `name` (`"cube_linear_velocity"`, ...) sits in the flat
+    /// observation, if the task has it.
+    pub fn slot(&self, name: &str) -> Option<std::ops::Range<usize>> {
+        self.layout.slot(name)
     }
 
     /// Positions of the finger joints among the observed joints (those driven by the
@@ -254,6 +264,7 @@ impl ScriptedPolicy {
                 config: config.clone(),
                 params,
                 slots: Slots::new(&layout),
+                layout: layout.clone(),
                 observation_dim: layout.flat_dim(),
                 cube_half: config.cube().map_or(CubeConfig::default().size, |c| c.size) / 2.0,
                 open_width: robot.gripper().max_width,
