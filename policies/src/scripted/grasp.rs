@@ -105,6 +105,22 @@ pub(super) trait GraspRules {
     }
 }
 
+/// Whether the hand is around `cube` (centred on it within `in_hand_tolerance`, level with it
+/// within `in_hand_height`) and whether its fingers, `width` apart, squeeze something (short of
+/// fully open, wider than half the cube).
+pub(super) fn hand_on_cube(
+    cx: &ExpertContext,
+    tcp: Vector3<f64>,
+    cube: Vector3<f64>,
+    width: f64,
+) -> (bool, bool) {
+    let p = &cx.params;
+    let relative = cube - tcp;
+    let around = relative.xy().norm() < p.in_hand_tolerance && relative.z.abs() < p.in_hand_height;
+    let squeezing = width < 0.9 * cx.open_width && width > 0.5 * cx.cube_half;
+    (around, squeezing)
+}
+
 /// The sequence's decision for one checked observation, under `rules`.
 pub(super) fn decide(
     rules: &dyn GraspRules,
@@ -134,11 +150,9 @@ pub(super) fn decide(
         .map(|i| (observation[s.joint_velocities.start + i] as f64).abs())
         .fold(0.0, f64::max);
 
-    let around_cube =
-        horizontal(relative) < p.in_hand_tolerance && relative.z.abs() < p.in_hand_height;
+    let (around_cube, squeezing) = hand_on_cube(cx, tcp, cube, width);
     // Fingers short of fully open: closing, squeezing something, or shut on nothing.
     let hand_closed = width < 0.9 * cx.open_width;
-    let squeezing = hand_closed && width > 0.5 * cx.cube_half;
     // And the task's rules: `stack` asks for the fingers on the cube (not still closing on
     // it), and keeps a cube off the surface under it held even while the fingers jiggle.
     let grip = cx.grip(target.rotation.as_ref());

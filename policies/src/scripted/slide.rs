@@ -101,22 +101,14 @@ impl Expert for SlideExpert {
         // The fingers shut on the cube, whether or not they have settled (a sliding cube keeps
         // them moving a little). While they open after the decision to let go, the cube keeps
         // its speed and nears the goal, so the decision stands.
-        let width = observation[s.width] as f64;
-        let p = cx.params();
-        let around = (cube - tcp).xy().norm() < p.in_hand_tolerance
-            && (cube.z - tcp.z).abs() < p.in_hand_height;
-        let closed = width < 0.9 * cx.open_width && width > 0.5 * cx.cube_half;
-        let gripping = around && closed;
+        let (around, squeezing) = grasp::hand_on_cube(cx, tcp, cube, observation[s.width] as f64);
+        let gripping = around && squeezing;
         // Aim beside the goal: the cube's path comes out steeper than the line it is slid along,
         // by a fraction of the line's sideways slope (measured).
         let line = (goal - cube).xy();
-        let slope = if line.norm() > 1e-9 {
-            line.y / line.norm()
-        } else {
-            0.0
-        };
-        let left = nalgebra::Vector2::new(-line.y, line.x) / line.norm().max(1e-9);
-        let aim = goal.xy() - left * (AIM_CORRECTION * slope);
+        let unit = line / line.norm().max(1e-9);
+        let left = nalgebra::Vector2::new(-unit.y, unit.x);
+        let aim = goal.xy() - left * (AIM_CORRECTION * unit.y);
         let to_goal = aim - cube.xy();
         let distance = to_goal.norm();
         let heading = if distance > 1e-9 {
@@ -156,20 +148,16 @@ impl Expert for SlideExpert {
             let target = Vector3::new(tcp.x + step.x, tcp.y + step.y, tcp.z);
             return Ok(decision(Phase::SLIDE, target, -1.0));
         }
-        if sliding {
-            if tcp.z < cube.z + CLEAR_HEIGHT && (cube - tcp).xy().norm() < 0.1 {
-                // The fingers are opening or still around the cube: keep pace, rising.
-                return Ok(decision(
-                    Phase::LET_GO,
-                    keep_pace(cube_velocity.xy().dot(&heading).max(0.0), RISE_SPEED),
-                    1.0,
-                ));
-            }
-            let above = Vector3::new(tcp.x, tcp.y, tcp.z.max(cube.z + WAIT_HEIGHT));
-            return Ok(decision(Phase::WAIT, above, 1.0));
+        if sliding && tcp.z < cube.z + CLEAR_HEIGHT && (cube - tcp).xy().norm() < 0.1 {
+            // The fingers are opening or still around the cube: keep pace, rising.
+            return Ok(decision(
+                Phase::LET_GO,
+                keep_pace(cube_velocity.xy().dot(&heading).max(0.0), RISE_SPEED),
+                1.0,
+            ));
         }
-        let reach = cx.config().ee_workspace[1][0] - REACH_MARGIN;
-        if cube.x > reach {
+        // Sliding away, or at rest beyond reach: wait above.
+        if sliding || cube.x > cx.config().ee_workspace[1][0] - REACH_MARGIN {
             let above = Vector3::new(tcp.x, tcp.y, tcp.z.max(cube.z + WAIT_HEIGHT));
             return Ok(decision(Phase::WAIT, above, 1.0));
         }
