@@ -12,6 +12,7 @@
 
 pub mod config;
 pub mod episode;
+pub mod flip;
 pub mod lift;
 pub mod migrate;
 pub mod observation;

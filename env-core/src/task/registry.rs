@@ -220,6 +220,7 @@ tasks! {
     Stack => crate::task::Stack,
     Push => crate::task::Push,
     Slide => crate::task::slide::Slide,
+    Flip => crate::task::flip::Flip,
 }
 
 impl TaskKind {

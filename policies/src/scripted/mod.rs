@@ -14,6 +14,7 @@
 //! [`PushExpert`] lines the closed hand up behind the cube and pushes. [`expert_for`] is the
 //! list: one line per task.
 
+mod flip;
 mod grasp;
 mod params;
 mod pick_and_place;
@@ -22,6 +23,7 @@ mod reach;
 mod slide;
 mod stack;
 
+pub use flip::FlipExpert;
 pub use params::ScriptedParams;
 pub use pick_and_place::PickAndPlaceExpert;
 pub use push::PushExpert;
@@ -72,6 +74,7 @@ pub fn expert_for(task: TaskKind) -> &'static dyn Expert {
         TaskKind::Stack => &StackExpert,
         TaskKind::Push => &PushExpert,
         TaskKind::Slide => &SlideExpert,
+        TaskKind::Flip => &FlipExpert,
     }
 }
 
