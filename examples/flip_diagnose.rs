@@ -2,7 +2,7 @@
 //! final angle to the goal, the steps to success and the phases the expert spent its steps
 //! in. For tuning the flip expert.
 //!
-//! `cargo run --release --example flip_diagnose -- [episodes] [ee|joints] [arm]`
+//! `cargo run --release --example flip_diagnose -- [episodes] [ee|joints] [arm] [joint_step]`
 //! (`VERBOSE=1`: one line per episode; `TRACE=seed`: one line per step of that episode).
 
 use std::collections::BTreeMap;
@@ -23,11 +23,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some("kinematic") => ArmFidelity::Kinematic,
         _ => ArmFidelity::Dynamic,
     };
-    let config = EnvConfig {
+    let mut config = EnvConfig {
         arm,
         control_mode: mode,
         ..EnvConfig::for_task(TaskKind::Flip)
     };
+    if let Some(step) = args.get(3) {
+        config.joint_step = step.parse()?;
+    }
     let trace: Option<u64> = std::env::var("TRACE").ok().and_then(|s| s.parse().ok());
     let mut env = PandaEnv::new(config.clone())?;
     let mut policy = ScriptedPolicy::new(&config)?;
@@ -45,10 +48,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         env.reset(Some(seed), &options)?;
         let goal = env.observation()[layout.desired_goal()].to_vec();
         let (mut success, mut angle, mut first) = (false, 0.0, None);
+        let mut spins = 0;
         for step in 0.. {
             let obs = env.observation().to_vec();
             let phase = policy.act(&obs, &mut action)?;
             *phases.entry(phase.as_str()).or_default() += 1;
+            spins += usize::from(phase.as_str() == "spin");
             let t = env.step(&action)?;
             success = t.info.is_success;
             angle = t.info.goal_distance;
@@ -75,7 +80,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             first_success.push(f);
         }
         if std::env::var("VERBOSE").is_ok() {
-            println!("seed {seed:3} goal {goal:.3?} angle {angle:.3} {success} first {first:?}");
+            println!(
+                "seed {seed:3} goal {goal:.3?} angle {angle:.3} {success} first {first:?} spin steps {spins}"
+            );
         }
     }
     first_success.sort_unstable();
