@@ -3,7 +3,8 @@
 //! in. For tuning the flip expert.
 //!
 //! `cargo run --release --example flip_diagnose -- [episodes] [ee|joints] [arm] [joint_step]`
-//! (`VERBOSE=1`: one line per episode; `TRACE=seed`: one line per step of that episode).
+//! (`VERBOSE=1`: one line per episode; `TRACE=seed`: one line per step of that episode;
+//! `FIRST_SEED=n`: seeds from n).
 
 use std::collections::BTreeMap;
 
@@ -39,7 +40,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut successes, mut first_success) = (0, Vec::new());
     let mut phases: BTreeMap<&'static str, usize> = BTreeMap::new();
     let mut final_angles = Vec::new();
-    for seed in 0..episodes {
+    let first: u64 = std::env::var("FIRST_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    for seed in first..first + episodes {
         let mut options = ResetOptions::default();
         if let Ok(g) = std::env::var("GOAL") {
             let v: Vec<f64> = g.split(',').map(|x| x.parse().unwrap_or(0.0)).collect();

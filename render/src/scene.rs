@@ -1,6 +1,7 @@
 //! The scene: materials, lighting, the floor, shadows, and the [`Renderer`] tying them up.
 
 use nalgebra::Vector3;
+use panda_rapier_core::task::GoalMarker;
 use panda_rapier_core::{
     Error, PandaEnv, Result, Simulation, VisualPrimitive, VisualShape, VisualTag,
 };
@@ -104,6 +105,8 @@ pub struct Renderer {
     /// shapes do not change between frames, so they are tessellated once.
     meshes: Vec<(VisualShape, Vec<Triangle>)>,
     casters: Vec<Triangle>,
+    /// The goal markers of the frame being drawn (kept to reuse the buffer).
+    markers: Vec<GoalMarker>,
 }
 
 impl Renderer {
@@ -126,6 +129,7 @@ impl Renderer {
             focal_px: camera.focal_px(config.height),
             meshes: Vec::new(),
             casters: Vec::new(),
+            markers: Vec::new(),
             config,
         })
     }
@@ -140,14 +144,33 @@ impl Renderer {
         &self.camera
     }
 
-    /// Draws the environment's current state with its goal.
+    /// Draws the environment's current state with its goal, as its task shows it.
     pub fn render(&mut self, env: &PandaEnv) -> &Frame {
-        self.render_simulation(env.simulation(), env.goal())
+        let mut markers = std::mem::take(&mut self.markers);
+        markers.clear();
+        env.task().goal_markers(env.goal(), &mut markers);
+        self.render_with_markers(env.simulation(), &markers);
+        self.markers = markers;
+        &self.frame
     }
 
     /// Draws a simulation, with a goal marker at every position (consecutive triples) in
     /// `goal`; non-finite positions are left out.
     pub fn render_simulation(&mut self, sim: &Simulation, goal: &[f64]) -> &Frame {
+        let mut markers = std::mem::take(&mut self.markers);
+        markers.clear();
+        markers.extend(
+            goal.chunks_exact(3)
+                .filter(|g| g.iter().all(|x| x.is_finite()))
+                .map(|g| GoalMarker::Point(Vector3::new(g[0], g[1], g[2]))),
+        );
+        self.render_with_markers(sim, &markers);
+        self.markers = markers;
+        &self.frame
+    }
+
+    /// Draws a simulation with the goal `markers`.
+    pub fn render_with_markers(&mut self, sim: &Simulation, markers: &[GoalMarker]) -> &Frame {
         self.frame.clear(&self.background);
         self.primitives.clear();
         sim.visual_primitives(&mut self.primitives);
@@ -183,17 +206,25 @@ impl Renderer {
             let casts = !matches!(p.tag, VisualTag::Platform);
             self.draw_primitive(index, p, color, &light, casts);
         }
-        let goal = if self.config.show_goal { goal } else { &[] };
-        for (k, goal) in goal
-            .chunks_exact(3)
-            .filter(|g| g.iter().all(|x| x.is_finite()))
-            .enumerate()
-        {
+        let markers = if self.config.show_goal { markers } else { &[] };
+        for (k, marker) in markers.iter().enumerate() {
+            let (shape, pose) = match *marker {
+                GoalMarker::Point(at) => (
+                    VisualShape::Sphere {
+                        radius: GOAL_RADIUS,
+                    },
+                    nalgebra::Isometry3::translation(at.x, at.y, at.z),
+                ),
+                GoalMarker::Pose { pose, half_extent } => (
+                    VisualShape::Box {
+                        half_extents: Vector3::repeat(half_extent),
+                    },
+                    pose,
+                ),
+            };
             let marker = VisualPrimitive {
-                shape: VisualShape::Sphere {
-                    radius: GOAL_RADIUS,
-                },
-                pose: nalgebra::Isometry3::translation(goal[0], goal[1], goal[2]),
+                shape,
+                pose,
                 // Not drawn by tag: the colour is given below and the marker casts no shadow.
                 tag: VisualTag::Floor,
             };

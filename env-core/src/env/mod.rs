@@ -250,7 +250,8 @@ impl PandaEnv {
         &self.info
     }
 
-    /// The current goal (`goal_dim` entries; for pick-and-place the cube centre's position, m).
+    /// The current goal (`goal_dim` entries; for pick-and-place the cube centre's position, m;
+    /// for flip the cube's orientation, a quaternion x, y, z, w).
     pub fn goal(&self) -> &[f64] {
         &self.goal
     }

@@ -21,7 +21,8 @@ pub struct ResetOptions {
     pub cube_position: Option<[f64; 3]>,
     /// Start yaw of the cube (rad).
     pub cube_yaw: Option<f64>,
-    /// Goal position for the cube's centre (m).
+    /// The goal: a position for the cube's centre (m), or in `flip` the goal orientation as a
+    /// rotation vector (axis times angle, rad).
     pub goal: Option<[f64; 3]>,
     /// Start configuration of the robot (one value per actuated joint).
     pub joint_positions: Option<Vec<f64>>,

@@ -27,6 +27,10 @@
 //! draws it. `reset(options={"goal": ...})` takes the goal as a rotation vector (axis times
 //! angle, rad). The scene has no platform.
 //!
+//! Renderings show the goal as panda-gym does, a cube turned to it floating beside the cube's
+//! region (its faces share one colour there, so the orientation shows up to the cube's
+//! symmetry).
+//!
 //! # Success
 //! The cube's orientation within `task.angle_threshold` (rad) of the goal's, the angle of
 //! the rotation from one to the other (`goal_distance`). The default, 0.9273 rad (53.13
@@ -49,7 +53,7 @@ use serde::{Deserialize, Serialize};
 use super::config::{Range, Region};
 use super::episode::{cube_orientation, CubeProperties, TaskInfo};
 use super::registry::{TaskDescriptor, TaskSpec};
-use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use super::{EnvConfig, EpisodeStart, GoalMarker, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::config::{invalid, CubeConfig};
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, ObjectSpec, Scene, Simulation};
@@ -61,6 +65,9 @@ use crate::task::reward::{closeness, compute_batch_with, RewardTerm, RewardWeigh
 
 /// Size of each goal: a unit quaternion.
 const GOAL_DIM: usize = 4;
+
+/// Height (m) at which renderings show the goal orientation.
+const GOAL_MARKER_HEIGHT: f64 = 0.15;
 
 /// `orient`: the cube turned towards the goal orientation.
 pub const ORIENT: RewardTerm = RewardTerm {
@@ -338,6 +345,21 @@ impl Task for Flip {
         let cube = sim.object_state(self.cube());
         achieved.copy_from_slice(&canonical(&cube.orientation));
         write_cube_slots(&cube, tcp, extras);
+    }
+
+    fn goal_markers(&self, goal: &[f64], out: &mut Vec<GoalMarker>) {
+        // panda-gym's ghost cube: turned to the goal, floating beside the cube's region.
+        if goal.len() == GOAL_DIM && goal.iter().all(|v| v.is_finite()) {
+            let rotation = UnitQuaternion::from_quaternion(Quaternion::new(
+                goal[3], goal[0], goal[1], goal[2],
+            ));
+            let [low, high] = [self.section.cube_region.low, self.section.cube_region.high];
+            let at = Vector3::new(0.5 * (low[0] + high[0]), high[1] + 0.15, GOAL_MARKER_HEIGHT);
+            out.push(GoalMarker::Pose {
+                pose: nalgebra::Isometry3::from_parts(at.into(), rotation),
+                half_extent: self.section.cube.size / 2.0,
+            });
+        }
     }
 
     fn evaluate(&self, view: &View<'_>) -> Verdict {

@@ -7,7 +7,7 @@
 //! observation entries it adds after the robot's, and its reward and success predicates. The
 //! robot, its action controller, episode bookkeeping, blow-up detection and snapshots are the
 //! environment's, the same for every task. The tasks: [`PickAndPlace`], [`Reach`], [`Lift`],
-//! [`Stack`], [`Push`]; adding one is a new file here implementing [`Task`] and
+//! [`Stack`], [`Push`], [`slide::Slide`], [`flip::Flip`]; adding one is a new file here implementing [`Task`] and
 //! [`TaskSpec`] and one line in the [`registry`].
 
 pub mod config;
@@ -46,6 +46,21 @@ pub use stack::{Stack, StackConfig};
 use crate::error::Result;
 use crate::physics::{BodyState, Scene, Simulation};
 use crate::robot::RobotSpec;
+
+/// How a renderer shows a goal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum GoalMarker {
+    /// A position to reach (a small sphere).
+    Point(nalgebra::Vector3<f64>),
+    /// An orientation to reach, shown as a cube of half edge `half_extent` turned to it at
+    /// `pose`.
+    Pose {
+        /// Where the cube is drawn and how it is turned.
+        pose: nalgebra::Isometry3<f64>,
+        /// Half its edge (m).
+        half_extent: f64,
+    },
+}
 
 /// What the task says about the current state.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -120,6 +135,16 @@ pub trait Task: Send + Sync + std::fmt::Debug {
         achieved: &mut [f64],
         extras: &mut [f64],
     );
+
+    /// How a renderer shows `goal` (one of the task's goals), appended to `out`: by default a
+    /// point at every position (consecutive triples) in it; non-finite ones are left out.
+    fn goal_markers(&self, goal: &[f64], out: &mut Vec<GoalMarker>) {
+        out.extend(
+            goal.chunks_exact(3)
+                .filter(|g| g.iter().all(|x| x.is_finite()))
+                .map(|g| GoalMarker::Point(nalgebra::Vector3::new(g[0], g[1], g[2]))),
+        );
+    }
 
     /// Judges the state just observed: predicates, reward context and reward.
     fn evaluate(&self, view: &View<'_>) -> Verdict;

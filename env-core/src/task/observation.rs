@@ -283,7 +283,7 @@ pub const COMMON_INFO_FIELDS: [InfoField; 7] = [
     info_field(
         "goal_distance",
         InfoType::Float,
-        "distance from the achieved to the desired goal (m)",
+        "distance from the achieved to the desired goal (m; in flip the angle between the orientations, rad)",
     ),
     info_field(
         "gripper_opening",

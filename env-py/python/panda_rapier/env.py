@@ -35,6 +35,12 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
       fingers closed; no platform; pick-and-place's observation; dense reward reach + carry.
     - ``"stack"`` (``Stack*``): one cube on the goal on the platform, the other on top;
       6-D goals (both cubes), 57-entry observation (both cubes' slots); 150 steps.
+    - ``"slide"`` (``Slide*``): slide the cube over a slippery floor (``floor_friction``
+      0.04) to a goal beyond the arm's reach; pick-and-place's observation; 100 steps.
+    - ``"flip"`` (``Flip*``): turn the cube to a uniformly random goal orientation (panda-gym's
+      PandaFlip); 4-D goals (quaternions x, y, z, w), success within ``angle_threshold``
+      (0.927 rad, panda-gym's criterion), ``goal_distance`` the angle; dense reward reach +
+      ``orient`` ``(q . g)^2``; ``reset(options={"goal": rotation_vector})``; 200 steps.
 
     Before 0.2 the tasks' fields were top-level options (``pick_region``,
     ``reach_goal_region``, ``lift_height``, ``push_goal_region``, ``goal_air_probability``,

@@ -28,7 +28,7 @@ TASK_EPISODE_STEPS: dict[str, int] = {t["name"]: int(t["episode_steps"]) for t i
 TASK_NAMES: dict[str, str] = {t["name"]: str(t["id_stem"]) for t in TASKS}
 
 #: The joint action scale of each task's ``joints`` ids where it differs from the default
-#: ``joint_step`` (slide's let-go speed needs 0.1 rad per step).
+#: ``joint_step`` (slide's let-go speed and flip's rolls need 0.1 rad per step).
 TASK_JOINT_STEPS: dict[str, float] = {
     t["name"]: float(t["joint_step"]) for t in TASKS if t["joint_step"] is not None
 }

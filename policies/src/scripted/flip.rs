@@ -193,8 +193,9 @@ fn plan(rotation: &UnitQuaternion<f64>, goal: &UnitQuaternion<f64>, threshold: f
     // Every plan of up to MAX_ROLLS rolls (none straight back), with or without a spin at the
     // end, as (cost, angle left, first move).
     let mut plans: Vec<(f64, f64, Move)> = Vec::new();
-    let mut stack: Vec<(UnitQuaternion<f64>, usize, Option<usize>, Option<usize>)> =
-        vec![(*rotation, 0, None, None)];
+    // (orientation, rolls so far, the first roll's index, the last roll's index)
+    type Node = (UnitQuaternion<f64>, usize, Option<usize>, Option<usize>);
+    let mut stack: Vec<Node> = vec![(*rotation, 0, None, None)];
     while let Some((r, depth, first, last)) = stack.pop() {
         let cost = depth as f64;
         let first_move = |otherwise| first.map_or(otherwise, |i: usize| Move::Roll(directions[i]));
