@@ -277,6 +277,54 @@ pub struct PickAndPlace {
     cube: Option<ObjectId>,
 }
 
+/// The [`Task`] methods of a task that observes, judges and rewards as pick-and-place does
+/// (lift, push, slide), each handed to its `cube_task` field (a [`PickAndPlace`] made by
+/// [`PickAndPlace::cube_task`]): `bind`, `goal_dim`, `observation_slots`, `observe`,
+/// `evaluate` and `compute_rewards`. Invoked inside the task's `impl Task`, which adds the
+/// rest (its descriptor, scene, goal descriptions and episode draw).
+macro_rules! judged_as_pick_and_place {
+    () => {
+        fn bind(&mut self, sim: &$crate::physics::Simulation) -> $crate::error::Result<()> {
+            self.cube_task.bind(sim)
+        }
+
+        fn goal_dim(&self) -> usize {
+            self.cube_task.goal_dim()
+        }
+
+        fn observation_slots(&self) -> &'static [$crate::task::SlotSpec] {
+            self.cube_task.observation_slots()
+        }
+
+        fn observe(
+            &self,
+            sim: &$crate::physics::Simulation,
+            tcp: &$crate::physics::BodyState,
+            goal: &[f64],
+            achieved: &mut [f64],
+            extras: &mut [f64],
+        ) {
+            self.cube_task.observe(sim, tcp, goal, achieved, extras)
+        }
+
+        fn evaluate(&self, view: &$crate::task::View<'_>) -> $crate::task::Verdict {
+            self.cube_task.evaluate(view)
+        }
+
+        fn compute_rewards(
+            &self,
+            achieved: &[f32],
+            desired: &[f32],
+            contexts: &[f32],
+            out: &mut [f32],
+        ) -> $crate::error::Result<()> {
+            self.cube_task
+                .compute_rewards(achieved, desired, contexts, out)
+        }
+    };
+}
+pub(crate) use judged_as_pick_and_place;
+
 impl PickAndPlace {
     /// The task with the descriptor (info entries, reward terms and context) of `as_task`: a
     /// cube task that observes and judges as pick-and-place does ([`crate::task::Lift`],

@@ -52,10 +52,10 @@ use serde::{Deserialize, Serialize};
 use super::config::{Range, Region};
 use super::episode::{cube_orientation, CubeProperties, CUBE_REGION, CUBE_YAW_RANGE};
 use super::registry::{TaskDescriptor, TaskSpec};
-use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use super::{EnvConfig, EpisodeStart, ResetOptions, Task};
 use crate::config::CubeConfig;
 use crate::error::Result;
-use crate::physics::{BodyState, ObjectSpec, Scene, Simulation};
+use crate::physics::{ObjectSpec, Scene};
 use crate::task::observation::InfoField;
 use crate::task::pick_and_place::{
     term_field, PickAndPlace, PickAndPlaceConfig, IS_GRASPED, IS_LIFTED,
@@ -174,23 +174,11 @@ impl Task for Push {
         }
     }
 
-    fn bind(&mut self, sim: &Simulation) -> Result<()> {
-        self.cube_task.bind(sim)
-    }
-
-    fn goal_dim(&self) -> usize {
-        self.cube_task.goal_dim()
-    }
-
     fn goal_descriptions(&self) -> [&'static str; 2] {
         [
             "cube centre position",
             "goal position for the cube centre, on the floor",
         ]
-    }
-
-    fn observation_slots(&self) -> &'static [SlotSpec] {
-        self.cube_task.observation_slots()
     }
 
     fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart) {
@@ -221,33 +209,9 @@ impl Task for Push {
         start.set([cube], goal.iter().copied());
     }
 
-    fn observe(
-        &self,
-        sim: &Simulation,
-        tcp: &BodyState,
-        goal: &[f64],
-        achieved: &mut [f64],
-        extras: &mut [f64],
-    ) {
-        self.cube_task.observe(sim, tcp, goal, achieved, extras)
-    }
-
-    fn evaluate(&self, view: &View<'_>) -> Verdict {
-        // Pick-and-place's judgement with this task's terms: nothing is paid for holding the
-        // cube (`grasp` and `lift` weigh 0) and there is no platform to place it on.
-        self.cube_task.evaluate(view)
-    }
-
-    fn compute_rewards(
-        &self,
-        achieved: &[f32],
-        desired: &[f32],
-        contexts: &[f32],
-        out: &mut [f32],
-    ) -> Result<()> {
-        self.cube_task
-            .compute_rewards(achieved, desired, contexts, out)
-    }
+    // Pick-and-place's judgement with this task's terms: nothing is paid for holding the
+    // cube (`grasp` and `lift` weigh 0) and there is no platform to place it on.
+    crate::task::pick_and_place::judged_as_pick_and_place!();
 }
 
 #[cfg(test)]
