@@ -159,11 +159,7 @@ impl Renderer {
     pub fn render_simulation(&mut self, sim: &Simulation, goal: &[f64]) -> &Frame {
         let mut markers = std::mem::take(&mut self.markers);
         markers.clear();
-        markers.extend(
-            goal.chunks_exact(3)
-                .filter(|g| g.iter().all(|x| x.is_finite()))
-                .map(|g| GoalMarker::Point(Vector3::new(g[0], g[1], g[2]))),
-        );
+        GoalMarker::points(goal, &mut markers);
         self.render_with_markers(sim, &markers);
         self.markers = markers;
         &self.frame

@@ -59,9 +59,9 @@ use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, ObjectSpec, Scene, Simulation};
 use crate::task::config::RewardType;
 use crate::task::observation::InfoField;
-use crate::task::pick_and_place::{norm, term_field, write_cube_slots};
+use crate::task::pick_and_place::{canonical, norm, term_field, write_cube_slots};
 use crate::task::reward::cube_terms::REACH;
-use crate::task::reward::{closeness, compute_batch_with, RewardTerm, RewardWeights};
+use crate::task::reward::{closeness, compute_batch_with, resolve_weights, RewardTerm};
 
 /// Size of each goal: a unit quaternion.
 const GOAL_DIM: usize = 4;
@@ -182,15 +182,12 @@ impl TaskSpec for Flip {
     }
 
     fn build(section: &FlipConfig, config: &EnvConfig) -> Self {
+        let weights = resolve_weights(Self::DESCRIPTOR.reward_terms, &config.reward_weights);
         Self {
             section: section.clone(),
             config: config.clone(),
-            weights: RewardWeights::resolve(&[REACH], &config.reward_weights),
-            orient_weight: config
-                .reward_weights
-                .get(ORIENT.name)
-                .copied()
-                .unwrap_or(ORIENT.default_weight),
+            reach_weight: weights[REACH.name],
+            orient_weight: weights[ORIENT.name],
             cube: None,
         }
     }
@@ -201,15 +198,16 @@ impl TaskSpec for Flip {
 pub struct Flip {
     section: FlipConfig,
     config: EnvConfig,
-    /// The `reach` term's weight (the others weigh 0).
-    weights: RewardWeights,
+    /// The `reach` term's weight.
+    reach_weight: f64,
     /// The `orient` term's weight.
     orient_weight: f64,
     cube: Option<ObjectId>,
 }
 
-/// The unit quaternion of the x, y, z, w values `q` (normalised in f64).
-fn quaternion(q: &[f32]) -> UnitQuaternion<f64> {
+/// The unit quaternion of the x, y, z, w values `q` (an observation's orientation slot),
+/// normalised in f64.
+pub fn quaternion(q: &[f32]) -> UnitQuaternion<f64> {
     UnitQuaternion::from_quaternion(Quaternion::new(
         q[3] as f64,
         q[0] as f64,
@@ -223,11 +221,16 @@ fn quaternion(q: &[f32]) -> UnitQuaternion<f64> {
 pub fn orientation_distance(a: &[f32], b: &[f32]) -> (f64, f64) {
     let (a, b) = (quaternion(a), quaternion(b));
     let dot = a.coords.dot(&b.coords).abs().min(1.0);
-    (2.0 * dot.acos(), dot * dot)
+    (angle_between(&a, &b), dot * dot)
+}
+
+/// The angle (rad, in [0, pi]) of the rotation between the orientations `a` and `b`.
+pub fn angle_between(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>) -> f64 {
+    2.0 * a.coords.dot(&b.coords).abs().min(1.0).acos()
 }
 
 /// The uniformly random orientation of three uniform draws in `[0, 1)` (Shoemake's method).
-fn uniform_orientation(u: [f64; 3]) -> UnitQuaternion<f64> {
+pub fn uniform_orientation(u: [f64; 3]) -> UnitQuaternion<f64> {
     use std::f64::consts::TAU;
     let (a, b) = ((1.0 - u[0]).sqrt(), u[0].sqrt());
     let (t1, t2) = (TAU * u[1], TAU * u[2]);
@@ -237,12 +240,6 @@ fn uniform_orientation(u: [f64; 3]) -> UnitQuaternion<f64> {
         a * t1.cos(),
         b * t2.sin(),
     ))
-}
-
-/// `q` as x, y, z, w with w >= 0.
-fn canonical(q: &UnitQuaternion<f64>) -> [f64; 4] {
-    let c = if q.w < 0.0 { -q.coords } else { q.coords };
-    [c.x, c.y, c.z, c.w]
 }
 
 impl Flip {
@@ -366,7 +363,7 @@ impl Task for Flip {
         let l = view.layout;
         let obs = view.observation;
         let reach =
-            self.weights.reach as f32 * closeness(norm(&obs[l.task_slot(RELATIVE_POSITION)]));
+            self.reach_weight as f32 * closeness(norm(&obs[l.task_slot(RELATIVE_POSITION)]));
         let (is_success, angle, reward, orient) =
             self.judge(&obs[l.achieved_goal()], &obs[l.desired_goal()], reach);
         let mut info = TaskInfo::new(&INFO_FIELDS);

@@ -62,6 +62,19 @@ pub enum GoalMarker {
     },
 }
 
+impl GoalMarker {
+    /// A point at every position (consecutive triples) in `positions`, appended to `out`;
+    /// non-finite ones are left out.
+    pub fn points(positions: &[f64], out: &mut Vec<GoalMarker>) {
+        out.extend(
+            positions
+                .chunks_exact(3)
+                .filter(|g| g.iter().all(|x| x.is_finite()))
+                .map(|g| GoalMarker::Point(nalgebra::Vector3::new(g[0], g[1], g[2]))),
+        );
+    }
+}
+
 /// What the task says about the current state.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Verdict {
@@ -139,11 +152,7 @@ pub trait Task: Send + Sync + std::fmt::Debug {
     /// How a renderer shows `goal` (one of the task's goals), appended to `out`: by default a
     /// point at every position (consecutive triples) in it; non-finite ones are left out.
     fn goal_markers(&self, goal: &[f64], out: &mut Vec<GoalMarker>) {
-        out.extend(
-            goal.chunks_exact(3)
-                .filter(|g| g.iter().all(|x| x.is_finite()))
-                .map(|g| GoalMarker::Point(nalgebra::Vector3::new(g[0], g[1], g[2]))),
-        );
+        GoalMarker::points(goal, out);
     }
 
     /// Judges the state just observed: predicates, reward context and reward.

@@ -506,14 +506,10 @@ impl Task for PickAndPlace {
 /// Writes a cube's five observation slots ([`SLOTS`]: position, orientation as x, y, z, w with
 /// w >= 0, linear and angular velocity, position relative to the TCP) into `out`.
 pub(crate) fn write_cube_slots(cube: &BodyState, tcp: &BodyState, out: &mut [f64]) {
-    let mut orientation = cube.orientation.coords;
-    if orientation.w < 0.0 {
-        orientation = -orientation;
-    }
     let relative = cube.position - tcp.position;
     let values: [&[f64]; 5] = [
         cube.position.as_slice(),
-        &[orientation.x, orientation.y, orientation.z, orientation.w],
+        &canonical(&cube.orientation),
         cube.linear_velocity.as_slice(),
         cube.angular_velocity.as_slice(),
         relative.as_slice(),
@@ -521,6 +517,12 @@ pub(crate) fn write_cube_slots(cube: &BodyState, tcp: &BodyState, out: &mut [f64
     for (o, v) in out.iter_mut().zip(values.iter().flat_map(|s| s.iter())) {
         *o = *v;
     }
+}
+
+/// `q` as x, y, z, w with w >= 0, as observations carry orientations.
+pub(crate) fn canonical(q: &nalgebra::UnitQuaternion<f64>) -> [f64; 4] {
+    let c = if q.w < 0.0 { -q.coords } else { q.coords };
+    [c.x, c.y, c.z, c.w]
 }
 
 /// The Euclidean norm of an observation slot, computed in f64 from its f32 values.

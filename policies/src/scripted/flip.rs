@@ -24,6 +24,7 @@
 //! in 98.8 %, the fifth with one in 92 %.
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector2, Vector3};
+use panda_rapier_core::task::flip::{angle_between as angle, quaternion};
 use panda_rapier_core::task::TaskConfig;
 use panda_rapier_core::Result;
 
@@ -108,22 +109,6 @@ const WAIT_HEIGHT: f64 = 0.1;
 /// The `flip` task's expert (see the module documentation).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct FlipExpert;
-
-/// A quaternion from the x, y, z, w values of an observation slot.
-fn quaternion_at(observation: &[f32], start: usize) -> UnitQuaternion<f64> {
-    let q = &observation[start..start + 4];
-    UnitQuaternion::from_quaternion(Quaternion::new(
-        q[3] as f64,
-        q[0] as f64,
-        q[1] as f64,
-        q[2] as f64,
-    ))
-}
-
-/// The angle (rad) between two orientations.
-fn angle(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>) -> f64 {
-    2.0 * a.coords.dot(&b.coords).abs().min(1.0).acos()
-}
 
 /// The turn `psi` about the vertical that brings `a` closest to `b`, and the angle left.
 fn best_spin(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>) -> (f64, f64) {
@@ -281,8 +266,8 @@ impl Expert for FlipExpert {
         };
         let v3 = |start: usize| vector_at(observation, &(start..start + 3));
         let cube = v3(position);
-        let rotation = quaternion_at(observation, s.achieved.start);
-        let goal = quaternion_at(observation, s.desired.start);
+        let rotation = quaternion(&observation[s.achieved.start..s.achieved.start + 4]);
+        let goal = quaternion(&observation[s.desired.start..s.desired.start + 4]);
         let tcp = v3(s.tcp.start);
         let at_rest = v3(velocity).norm() < REST_SPEED && v3(spin).norm() < REST_SPIN;
         let decision = |phase, tcp_target, speed| Decision {
@@ -498,14 +483,7 @@ mod tests {
         for index in 0..n {
             let u =
                 [index % k, (index / k) % k, index / (k * k)].map(|i| (i as f64 + 0.5) / k as f64);
-            let (a, b) = ((1.0 - u[0]).sqrt(), u[0].sqrt());
-            let (t1, t2) = (std::f64::consts::TAU * u[1], std::f64::consts::TAU * u[2]);
-            let goal = UnitQuaternion::from_quaternion(Quaternion::new(
-                b * t2.cos(),
-                a * t1.sin(),
-                a * t1.cos(),
-                b * t2.sin(),
-            ));
+            let goal = panda_rapier_core::task::flip::uniform_orientation(u);
             let mut r = UnitQuaternion::identity();
             for moves in 0..8 {
                 match plan(&r, &goal, threshold)[0] {
