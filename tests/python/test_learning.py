@@ -232,6 +232,55 @@ def test_train_ppo_checkpoints_and_resumes(tmp_path: Path) -> None:
     assert main([*common, "--out", str(tmp_path / "none"), "--resume"]) == 2
 
 
+def test_train_stops_early_and_ends_on_the_best_weights(tmp_path: Path) -> None:
+    """--patience stops a run whose evaluations stop improving; --final best makes model.zip
+    the best evaluation's weights, and the run record says why and which."""
+    conf = _write_recipe(tmp_path / "ppo.yml", "ppo", {
+        "n_envs": 4, "n_steps": 32, "batch_size": 64, "n_epochs": 1,
+        "policy_kwargs": "dict(features_extractor_class=NormalizedFlatten, net_arch=[32])",
+    })  # fmt: skip
+    out = tmp_path / "run"
+    common = ["train", "--algo", "ppo", "--env-id", "panda_rapier/PickAndPlaceDense-v0",
+              "--conf", str(conf), "--quiet", "--eval-every", "128", "--eval-episodes", "2",
+              "--checkpoint-every", "0", "--timesteps", "4096"]  # fmt: skip
+    assert main([*common, "--out", str(out), "--patience", "2", "--final", "best"]) == 0
+    lines = [json.loads(x) for x in (out / "evaluations.jsonl").read_text().splitlines()]
+    # A random policy never places nor succeeds: the first evaluation stays the best, and
+    # the two after it do not beat it.
+    assert [x["env_steps"] for x in lines] == [128, 256, 384]
+    run = json.loads((out / "run.json").read_text())
+    assert run["env_steps"] == 384 and "patience 2" in run["stopped_early"]["reason"]
+    assert run["final"] == "best" and run["final_weights"]["env_steps"] == 128
+    final = PPO.load(out / "model.zip", device="cpu").policy.state_dict()
+    best = PPO.load(out / "best.zip", device="cpu").policy.state_dict()
+    assert final.keys() == best.keys()
+    assert all(th.equal(final[k], best[k]) for k in final)
+    assert read_run_info(out / "model.zip")["final_weights"]["env_steps"] == 128
+    # Stopping is judged on evaluations, and bc runs have their own length.
+    assert main([*common, "--out", str(tmp_path / "a"), "--eval-every", "0",
+                 "--patience", "1"]) == 2  # fmt: skip
+    assert main(["train", "--algo", "bc", "--out", str(tmp_path / "b"), "--final", "best"]) == 2
+    with pytest.raises(SystemExit):
+        main([*common, "--out", str(tmp_path / "c"), "--stop-at", "1.5"])
+
+
+def test_stop_at_ends_a_run_once_validation_reaches_it() -> None:
+    from panda_rapier.training import _Recorder, stop_reason
+
+    recorder = _Recorder.__new__(_Recorder)
+    recorder.best, recorder.since_best = None, 0
+    line = {"success_rate": 0.96, "placed_rate": 0.0}
+    assert recorder._rank(line)
+    assert "--stop-at 0.95" in (stop_reason(recorder, line, None, 0.95) or "")
+    assert stop_reason(recorder, line, None, 0.97) is None
+    assert stop_reason(recorder, line, 3, None) is None
+    worse = {"success_rate": 0.5, "placed_rate": 0.0}
+    assert not recorder._rank(worse) and not recorder._rank(worse)
+    assert stop_reason(recorder, worse, 3, None) is None
+    assert not recorder._rank(worse)
+    assert "patience 3" in (stop_reason(recorder, worse, 3, None) or "")
+
+
 def test_train_init_from_starts_from_another_models_weights(tmp_path: Path) -> None:
     """Fine-tuning: a new run (here on the kinematic arm) starts from a saved model's weights
     and normaliser, and records where they came from; mismatched spaces are refused."""

@@ -42,6 +42,13 @@ def _non_negative(text: str) -> int:
     return value
 
 
+def _rate(text: str) -> float:
+    value = float(text)
+    if not 0.0 < value <= 1.0:  # also refuses nan
+        raise argparse.ArgumentTypeError(f"must be a rate in (0, 1], got {text}")
+    return value
+
+
 def _size(text: str) -> tuple[int, int]:
     try:
         width, height = (int(v) for v in text.lower().split("x"))
@@ -256,6 +263,28 @@ def _parser() -> argparse.ArgumentParser:
         help="torch threads while nothing else runs: PPO's updates, behaviour cloning's fits "
         "(default: every core)",
     )
+    train.add_argument(
+        "--patience",
+        type=_positive,
+        default=None,
+        metavar="N",
+        help="stop after N evaluations in a row that do not beat the best one (ranked as "
+        "best.zip is: placed rate, then success rate)",
+    )
+    train.add_argument(
+        "--stop-at",
+        type=_rate,
+        default=None,
+        metavar="SUCCESS",
+        help="stop once a validation evaluation's success rate reaches SUCCESS (0-1]",
+    )
+    train.add_argument(
+        "--final",
+        choices=("last", "best"),
+        default="last",
+        help="what model.zip holds: the weights training ended with (default) or the best "
+        "evaluation's, so a run never ends on a policy that fell back after its best",
+    )
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.set_defaults(run=_run_train)
 
@@ -388,6 +417,9 @@ def _run_train(args: argparse.Namespace) -> int:
         trust=args.trust_model_file,
         torch_threads=args.torch_threads,
         update_threads=args.update_threads,
+        patience=args.patience,
+        stop_at=args.stop_at,
+        final=args.final,
         progress=not args.quiet,
         command=["panda-rapier", *args.argv],
     )
@@ -403,6 +435,9 @@ def _run_train(args: argparse.Namespace) -> int:
             f"last validation: success {last['success_rate']:.3f} ({low:.3f}-{high:.3f}), "
             f"placed {last['placed_rate']:.3f} over {last['episodes']} episodes"
         )
+    weights = run.get("final_weights")
+    if run.get("final") == "best" and weights is not None:
+        print(f"model.zip holds the best evaluation's weights ({weights['env_steps']:,} steps)")
     return 0
 
 

@@ -249,10 +249,22 @@ class _Recorder:
         self.started = time.perf_counter()
         self.say = say
         self.best: tuple[float, float] | None = None
+        #: Evaluations since the best one (0: the last was the best).
+        self.since_best = 0
         for line in _read_lines(out / "evaluations.jsonl"):
-            key = (line["placed_rate"], line["success_rate"])
-            self.best = key if self.best is None or key > self.best else self.best
+            self._rank(line)
             run["last_evaluation"] = line  # a resumed run knows where it stopped
+
+    def _rank(self, line: Mapping[str, Any]) -> bool:
+        """Ranks an evaluation against the best so far (placed rate, then success rate, as
+        ``best.zip`` is chosen); True if it is the new best."""
+        key = (float(line["placed_rate"]), float(line["success_rate"]))
+        if self.best is None or key > self.best:
+            self.best = key
+            self.since_best = 0
+            return True
+        self.since_best += 1
+        return False
 
     def wall_time(self) -> float:
         return self.wall_offset + time.perf_counter() - self.started - self.eval_time
@@ -292,9 +304,7 @@ class _Recorder:
             f"[{env_steps:>10,} steps, {wall / 60:6.1f} min] validation success "
             f"{line['success_rate']:.3f} ({low:.3f}-{high:.3f}), placed {line['placed_rate']:.3f}"
         )
-        score = (line["placed_rate"], line["success_rate"])
-        if self.best is None or score > self.best:
-            self.best = score
+        if self._rank(line):
             best = {**self.run, "evaluation": line}
             best.update(env_steps=line["env_steps"], wall_time_s=line["wall_time_s"])
             save_model(model, self.out / "best.zip", best)
@@ -311,8 +321,25 @@ def _read_lines(path: Path) -> list[dict[str, Any]]:
         return []
 
 
+def stop_reason(
+    recorder: _Recorder, line: Mapping[str, Any], patience: int | None, stop_at: float | None
+) -> str | None:
+    """Why training stops after the evaluation ``line`` (``None``: it goes on): its success
+    rate reached ``stop_at``, or ``patience`` evaluations in a row have not beaten the best."""
+    if stop_at is not None and float(line["success_rate"]) >= stop_at:
+        return f"validation success {line['success_rate']:.3f} reached --stop-at {stop_at}"
+    if patience is not None and recorder.since_best >= patience:
+        return f"{recorder.since_best} evaluations without beating the best (--patience {patience})"
+    return None
+
+
 def _sb3_callback(
-    recorder: _Recorder, eval_every: int, checkpoint_every: int, state: dict[str, Any]
+    recorder: _Recorder,
+    eval_every: int,
+    checkpoint_every: int,
+    state: dict[str, Any],
+    patience: int | None = None,
+    stop_at: float | None = None,
 ) -> Any:
     from stable_baselines3.common.callbacks import BaseCallback
 
@@ -322,9 +349,14 @@ def _sb3_callback(
         def _on_step(self) -> bool:
             steps = self.num_timesteps
             if eval_every and steps >= state["next_eval"]:
-                recorder.evaluate(self.model, steps, self.logger)
+                line = recorder.evaluate(self.model, steps, self.logger)
                 while state["next_eval"] <= steps:
                     state["next_eval"] += eval_every
+                reason = stop_reason(recorder, line, patience, stop_at)
+                if reason is not None:
+                    recorder.run["stopped_early"] = {"env_steps": int(steps), "reason": reason}
+                    recorder.say(f"stopping: {reason}")
+                    return False
             if checkpoint_every and steps >= state["next_checkpoint"]:
                 while state["next_checkpoint"] <= steps:
                     state["next_checkpoint"] += checkpoint_every
@@ -362,6 +394,9 @@ def train(
     command: list[str] | None = None,
     say: Callable[[str], None] = print,
     on_evaluation: Callable[[dict[str, Any]], None] | None = None,
+    patience: int | None = None,
+    stop_at: float | None = None,
+    final: str = "last",
 ) -> dict[str, Any]:
     """Trains ``algo`` on ``env_id`` with its recipe and writes the run to ``out`` (see the
     module's documentation); returns the run record. ``timesteps`` and ``n_envs`` override
@@ -376,13 +411,22 @@ def train(
     mean return), after it is written and ``best.zip`` is saved: :mod:`panda_rapier.tuning`
     reports them to Ray Tune. torch runs on ``torch_threads`` threads while environments step
     and on ``update_threads`` (``None``: every core) while nothing else runs: PPO's updates and
-    behaviour cloning's fits (:mod:`panda_rapier.threads`)."""
+    behaviour cloning's fits (:mod:`panda_rapier.threads`).
+
+    Early stopping, judged on the periodic evaluations: training ends once an evaluation's
+    success rate reaches ``stop_at``, or after ``patience`` evaluations in a row that do not
+    beat the best (ranked as ``best.zip`` is: placed rate, then success rate); the run record
+    says why in ``stopped_early``. ``final`` chooses what ``model.zip`` holds: ``"last"``, the
+    weights training ended with, or ``"best"``, the best evaluation's (``best.zip``'s), so
+    that a run's final model is never one that fell back after its best evaluation; the run
+    record's ``final_weights`` says which evaluation's they are."""
     import torch as th
 
     from .threads import UpdateThreads, all_cores
 
     if env_id not in ENV_IDS:
         raise ConfigError(f"unknown environment id {env_id!r}; see panda_rapier.ENV_IDS")
+    _check_stopping(algo, eval_every, patience, stop_at, final)
     th.set_num_threads(torch_threads)
     out = Path(out)
     recipe = load_recipe(algo, env_id, conf)
@@ -491,7 +535,10 @@ def train(
         on_evaluation,
     )
     (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
-    periodic = _sb3_callback(recorder, eval_every or 0, checkpoint_every or 0, state)
+    run["final"] = final
+    periodic = _sb3_callback(
+        recorder, eval_every or 0, checkpoint_every or 0, state, patience, stop_at
+    )
     callbacks = [*_callbacks(recipe.get("callback")), periodic]
     from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
@@ -511,11 +558,43 @@ def train(
     last = run.get("last_evaluation") or {}
     if eval_every and last.get("env_steps") != int(model.num_timesteps):
         recorder.evaluate(model, int(model.num_timesteps))
-    save_model(model, out / "model.zip", run)
-    (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
     if remaining > 0:
         periodic.save_checkpoint()  # a later --resume with more --timesteps goes on
+    run["final_weights"] = run.get("last_evaluation")
+    if final == "best" and (out / "best.zip").is_file():
+        _load_weights(model, out / "best.zip")
+        run["final_weights"] = read_run_info(out / "best.zip").get("evaluation")
+    save_model(model, out / "model.zip", run)
+    (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
     return run
+
+
+#: What ``model.zip`` can hold: the weights training ended with, or the best evaluation's.
+FINAL_CHOICES = ("last", "best")
+
+
+def _check_stopping(
+    algo: str, eval_every: int | None, patience: int | None, stop_at: float | None, final: str
+) -> None:
+    if final not in FINAL_CHOICES:
+        raise InvalidArgumentError(f"final must be one of {FINAL_CHOICES}, got {final!r}")
+    if patience is not None and (
+        isinstance(patience, bool) or int(patience) != patience or patience < 1
+    ):
+        raise InvalidArgumentError(f"patience must be an int >= 1, got {patience!r}")
+    if stop_at is not None and not 0.0 < float(stop_at) <= 1.0:
+        raise InvalidArgumentError(f"stop_at must be a success rate in (0, 1], got {stop_at!r}")
+    wanted = patience is not None or stop_at is not None or final != "last"
+    if wanted and algo == "bc":
+        raise InvalidArgumentError(
+            "bc runs have a fixed length (demo_episodes, dagger_rounds); their best round is "
+            "best.zip: --patience, --stop-at and --final are for ppo, sac and tqc"
+        )
+    if wanted and not eval_every:
+        raise InvalidArgumentError(
+            "--patience, --stop-at and --final best are judged on the periodic evaluations: "
+            "give --eval-every a number of env steps"
+        )
 
 
 def _load_weights(model: Any, path: Path) -> None:
