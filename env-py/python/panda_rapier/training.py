@@ -563,7 +563,7 @@ def train(
     run["final_weights"] = run.get("last_evaluation")
     if final == "best" and (out / "best.zip").is_file():
         _load_weights(model, out / "best.zip")
-        run["final_weights"] = read_run_info(out / "best.zip").get("evaluation")
+        run["final_weights"] = (read_run_info(out / "best.zip") or {}).get("evaluation")
     save_model(model, out / "model.zip", run)
     (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
     return run
