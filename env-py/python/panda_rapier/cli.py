@@ -192,7 +192,7 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
     bench.set_defaults(run=_run_bench)
 
-    from .training import ALGORITHMS
+    from .training import ALGORITHMS, FINAL_CHOICES
 
     train = commands.add_parser(
         "train",
@@ -280,7 +280,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     train.add_argument(
         "--final",
-        choices=("last", "best"),
+        choices=FINAL_CHOICES,
         default="last",
         help="what model.zip holds: the weights training ended with (default) or the best "
         "evaluation's, so a run never ends on a policy that fell back after its best",

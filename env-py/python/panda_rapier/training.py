@@ -579,7 +579,7 @@ def _check_stopping(
     if final not in FINAL_CHOICES:
         raise InvalidArgumentError(f"final must be one of {FINAL_CHOICES}, got {final!r}")
     if patience is not None and (
-        isinstance(patience, bool) or int(patience) != patience or patience < 1
+        isinstance(patience, bool) or not isinstance(patience, int) or patience < 1
     ):
         raise InvalidArgumentError(f"patience must be an int >= 1, got {patience!r}")
     if stop_at is not None and not 0.0 < float(stop_at) <= 1.0:
