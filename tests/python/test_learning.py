@@ -27,6 +27,7 @@ from panda_rapier.evaluation import evaluate  # noqa: E402
 from panda_rapier.imitation import Demonstrations, behaviour_cloning, collect  # noqa: E402
 from panda_rapier.model_file import RUN_MEMBER, read_run_info  # noqa: E402
 from panda_rapier.normalization import NormalizedFlatten, fit_normalizers  # noqa: E402
+from panda_rapier.phases import PHASES, describe_split  # noqa: E402
 from panda_rapier.registration import env_config  # noqa: E402
 from panda_rapier.sb3 import make_vec_env  # noqa: E402
 from panda_rapier.training import load_recipe  # noqa: E402
@@ -219,7 +220,15 @@ def test_train_ppo_checkpoints_and_resumes(tmp_path: Path) -> None:
     first = PPO.load(out / "model.zip", device="cpu")
     scale = first.policy.features_extractor.scale.numpy()
     assert (scale != 1).any()  # fitted to the expert's states at the start
+    # Where the wall time went: every phase timed, evaluations and checkpoints left out.
+    run = json.loads((out / "run.json").read_text())
+    split = run["wall_time_split"]
+    assert list(split) == list(PHASES) and all(split[p] > 0 for p in PHASES), split
+    assert sum(split.values()) <= run["wall_time_s"], (split, run["wall_time_s"])
+    assert "env stepping" in describe_split(split) and " %" in describe_split(split)
     assert main([*common, "--timesteps", "1024", "--resume"]) == 0
+    resumed_split = json.loads((out / "run.json").read_text())["wall_time_split"]
+    assert all(resumed_split[p] > split[p] for p in PHASES), (split, resumed_split)
     resumed = PPO.load(out / "model.zip", device="cpu")
     assert resumed.num_timesteps == 1024
     np.testing.assert_array_equal(resumed.policy.features_extractor.scale.numpy(), scale)
@@ -374,6 +383,35 @@ def test_curves_and_models_table(tmp_path: Path) -> None:
     assert recorded["scripted panda_rapier/PickAndPlace-v0"]["success_rate"] == 1.0
     assert "panda-rapier train --algo bc" in table
     assert "panda-rapier eval --policy random --env-id ID" in table
+
+
+def test_reproduce_commands_name_the_recipe_an_old_run_used(tmp_path: Path) -> None:
+    """A run that read the package's recipe before it changed is reproduced with the recipe
+    file in the models folder's ``recipes/`` that trains alike (passed as ``--conf``)."""
+    from panda_rapier.reporting import _reproducing_command
+
+    env_id = "panda_rapier/PickAndPlaceDense-v0"
+    today = load_recipe("ppo", env_id)
+    command = ["panda-rapier", "train", "--algo", "ppo", "--env-id", env_id, "--out", "runs/x"]
+    run = {"algo": "ppo", "env_id": env_id, "command": command, "recipe": dict(today)}
+    recipes = tmp_path / "recipes"
+    recipes.mkdir()
+    # The package's recipe unchanged (rl-zoo3's monitor_kwargs does not count): as recorded.
+    run["recipe"].pop("monitor_kwargs", None)
+    assert _reproducing_command(run, recipes) == (command, "")
+    old = {**today, "gamma": 0.5}
+    run["recipe"] = old
+    command_now, caveat = _reproducing_command(run, recipes)
+    assert command_now == command and "has changed since this run" in caveat
+    _write_recipe(recipes / "a.yml", "ppo", {**today, "gamma": 0.7})
+    _write_recipe(recipes / "b.yml", "ppo", old)
+    assert _reproducing_command(run, recipes) == (
+        [*command[:6], "--conf", (recipes / "b.yml").as_posix(), *command[6:]],
+        "",
+    )
+    # A command that named its recipe file is left alone.
+    named = {**run, "command": [*command, "--conf", "mine.yml"]}
+    assert _reproducing_command(named, recipes) == (named["command"], "")
 
 
 def test_train_tqc_with_her_saves_its_replay_buffer_and_resumes(tmp_path: Path) -> None:

@@ -6,6 +6,8 @@
     panda-rapier eval --policy runs/tqc_her/model.zip --episodes 100 --json eval.json
     panda-rapier eval --policy scripted --episodes 2 --video scripted.mp4
     panda-rapier bench --num-envs 1 16 64 256 --json bench.json
+    panda-rapier bench-train --env-id panda_rapier/PickAndPlaceDense-v0 --variant now \
+        --variant one-thread update_threads=1
     panda-rapier train --algo bc --env-id panda_rapier/PickAndPlace-v0 --out runs/bc
     panda-rapier train --algo ppo --env-id panda_rapier/PickAndPlaceDense-v0 --out runs/ppo
     panda-rapier curves runs/bc runs/ppo --out curves.png
@@ -191,6 +193,35 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--json", type=Path, default=None, help="write the report here")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
     bench.set_defaults(run=_run_bench)
+
+    bench_train = commands.add_parser(
+        "bench-train",
+        help="training throughput: end-to-end env-steps/s of recipe variants, and where the "
+        "wall time goes",
+        description="Trains each VARIANT of the recipe (the package's, or --conf) for --steps "
+        "env steps, round after round in a fixed interleaved order, and prints per variant the "
+        "median env-steps/s (updates included, evaluations excluded), its ratio to the first "
+        "variant's and the median seconds of env stepping, the policy in rollouts, other "
+        "rollout work and updates. Speed only: compare learning with full runs.",
+    )
+    bench_train.add_argument("--algo", choices=("ppo", "sac", "tqc"), default="ppo")
+    bench_train.add_argument("--env-id", "--env", choices=ENV_IDS, default=DEFAULT_ENV_ID)
+    bench_train.add_argument("--conf", type=Path, default=None, help="recipe file (rl-zoo3 YAML)")
+    bench_train.add_argument(
+        "--variant",
+        nargs="+",
+        action="append",
+        metavar="NAME [KEY=VALUE ...]",
+        help="a variant: a name, then recipe overrides and update_threads (torch's threads "
+        "during updates); repeat for each (default: one, the recipe as it is)",
+    )
+    bench_train.add_argument(
+        "--steps", type=_positive, default=81_920, help="env steps per run (default 81,920)"
+    )
+    bench_train.add_argument("--rounds", type=_positive, default=3, help="interleaved rounds")
+    bench_train.add_argument("--json", type=Path, default=None, help="write the report here")
+    bench_train.add_argument("--quiet", action="store_true", help="no progress bar")
+    bench_train.set_defaults(run=_run_bench_train)
 
     from .training import ALGORITHMS, FINAL_CHOICES
 
@@ -491,6 +522,31 @@ def _run_bench(args: argparse.Namespace) -> int:
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(to_json(report))
+        print(f"report written to {args.json}")
+    return 0
+
+
+def _run_bench_train(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from .train_bench import benchmark_training, format_training_report, parse_variant
+
+    variants = [parse_variant(tokens) for tokens in (args.variant or [["recipe"]])]
+    with tqdm(desc="bench-train", unit="run", disable=args.quiet, file=sys.stderr) as bar:
+
+        def progress(done: int, total: int, label: str) -> None:
+            bar.total = total
+            bar.set_postfix_str(label)
+            bar.update(done - bar.n)
+
+        report = benchmark_training(
+            args.algo, args.env_id, variants, steps=args.steps, rounds=args.rounds,
+            conf=args.conf, progress=progress,
+        )  # fmt: skip
+    print(format_training_report(report))
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(report, indent=1) + "\n")
         print(f"report written to {args.json}")
     return 0
 

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from .errors import InvalidArgumentError
+from .errors import ConfigError, InvalidArgumentError
 from .model_file import read_run_info
 from .registration import TASK_NAMES, TASKS, task_id, variant
 
@@ -268,18 +268,57 @@ def _header(folder: Path, episodes: int) -> str:
     )
 
 
+#: Where a models folder keeps the recipes its models were trained with once the package's
+#: recipe for their id has changed (``models-table`` passes the matching one as ``--conf``).
+RECIPES = "recipes"
+
+
 def _reproduce(model: Path, run: dict[str, Any], source: dict[str, Any]) -> str:
-    steps = [f"`{shlex.join(run['command'])}`, then copy `{_out_of(run['command'])}/"
+    recipes = model.parent / RECIPES
+    command, caveat = _reproducing_command(run, recipes)
+    steps = [f"`{shlex.join(command)}`, then copy `{_out_of(command)}/"
              f"{_saved_as(run)}` here as `{model.name}`"]  # fmt: skip
+    notes = [caveat, run.get("note", "")]
     if source:
-        steps.insert(0, f"`{shlex.join(source['command'])}` (its `{_saved_as(source)}` is "
+        first, first_caveat = _reproducing_command(source, recipes)
+        steps.insert(0, f"`{shlex.join(first)}` (its `{_saved_as(source)}` is "
                         f"the `--init-from` model: {source.get('env_steps', 0):,} steps, "
                         f"{float(source.get('wall_time_s', 0)) / 60:.1f} min, included in "
                         "the row)")  # fmt: skip
+        notes.insert(0, first_caveat)
+    notes = list(dict.fromkeys(note for note in notes if note))
     return (
-        f"- `{model.name}`: "
-        + "; then ".join(steps)
-        + (f" ({run['note']})" if run.get("note") else "")
+        f"- `{model.name}`: " + "; then ".join(steps) + (f" ({'; '.join(notes)})" if notes else "")
+    )
+
+
+def _reproducing_command(run: dict[str, Any], recipes: Path) -> tuple[list[str], str]:
+    """The recorded ``train`` command of ``run``, made to train as it did on today's package:
+    when the run read the package's recipe and that recipe has changed since, the recipe file
+    in ``recipes`` that trains alike is passed as ``--conf`` (or, without one, a caveat says
+    where the run's recipe is recorded)."""
+    from .training import load_recipe, recipes_train_alike
+
+    command = [str(part) for part in run["command"]]
+    if "--conf" in command or "recipe" not in run:
+        return command, ""
+    try:
+        if recipes_train_alike(load_recipe(run["algo"], run["env_id"]), run["recipe"]):
+            return command, ""
+    except ConfigError:
+        pass
+    for path in sorted(recipes.glob("*.yml")):
+        try:
+            candidate = load_recipe(run["algo"], run["env_id"], path)
+            alike = recipes_train_alike(candidate, run["recipe"])
+        except ConfigError:
+            continue
+        if alike:
+            at = command.index("--env-id") + 2 if "--env-id" in command else len(command)
+            return [*command[:at], "--conf", path.as_posix(), *command[at:]], ""
+    return command, (
+        f"the package's {run['algo']} recipe for this id has changed since this run; the one "
+        "it used is the `recipe` entry of `panda_rapier_run.json` in the zip"
     )
 
 

@@ -129,6 +129,9 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
         self._episode_returns = np.zeros(self.num_envs, dtype=np.float64)
         self._episode_lengths = np.zeros(self.num_envs, dtype=np.int64)
         self._start_time = time.time()
+        #: Wall-clock seconds spent in :meth:`step_wait` so far (stepping, observations,
+        #: infos): what :class:`~panda_rapier.phases.PhaseClock` reports as env stepping.
+        self.step_seconds = 0.0
         self._frames = FrameSource(render_mode, width, height, camera, float(self._native.dt))
 
     @property
@@ -156,7 +159,16 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
     ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, list[dict[str, Any]]]:
         if self._actions is None:
             raise InvalidArgumentError("step_wait() called without step_async()")
-        flat, rewards, terminated, truncated = self._native.step(self._actions)
+        began = time.perf_counter()
+        try:
+            return self._step_wait(self._actions)
+        finally:
+            self.step_seconds += time.perf_counter() - began
+
+    def _step_wait(
+        self, actions: np.ndarray
+    ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, list[dict[str, Any]]]:
+        flat, rewards, terminated, truncated = self._native.step(actions)
         self._actions = None
         dones = terminated | truncated
         infos = self._native.info_rows("step")

@@ -8,7 +8,9 @@ and writes everything to its output directory:
   env id and every environment option are stored inside the zip (``panda_rapier_run.json``)
   and in ``run.json``;
 - ``run.json``: versions, seeds, hyperparameters, the command, steps, wall time and the last
-  evaluation;
+  evaluation; for the SB3 algorithms, where the wall time went (``wall_time_split``: seconds
+  of env stepping, the policy's forward passes in rollouts, other rollout work and updates,
+  :mod:`panda_rapier.phases`);
 - ``evaluations.jsonl``: one line per periodic evaluation (env steps, wall time, success rate
   with its 95 % interval, placed rate, mean return) on validation seeds, which neither the
   training episodes nor the final test seeds (``panda-rapier eval``'s default, 0 to 999) use;
@@ -60,6 +62,7 @@ __all__ = [
     "load_recipe",
     "model_kwargs",
     "read_run_info",
+    "recipes_train_alike",
     "train",
 ]
 
@@ -83,6 +86,8 @@ _RUN_KEYS = (
     "monitor_kwargs",
 )
 _UNSUPPORTED = ("frame_stack", "env_wrapper", "vec_env_wrapper")
+# Recipe keys ``panda-rapier train`` does not read at all.
+_ZOO_ONLY_KEYS = ("monitor_kwargs",)
 _BC_KEYS = {
     "policy": "MultiInputPolicy",
     "policy_kwargs": None,
@@ -140,6 +145,16 @@ def load_recipe(algo: str, env_id: str, conf: str | Path | None = None) -> dict[
             raise ConfigError(f"unknown bc recipe keys {sorted(unknown)}; known: {list(_BC_KEYS)}")
         return {**_BC_KEYS, **recipe}
     return recipe
+
+
+def recipes_train_alike(first: Mapping[str, Any], second: Mapping[str, Any]) -> bool:
+    """Whether ``panda-rapier train`` trains the same way with either recipe: equal but for
+    the keys only rl-zoo3 reads (``monitor_kwargs``)."""
+
+    def used(recipe: Mapping[str, Any]) -> dict[str, Any]:
+        return {k: v for k, v in recipe.items() if k not in _ZOO_ONLY_KEYS}
+
+    return used(first) == used(second)
 
 
 def _schedule(value: Any) -> Any:
@@ -246,6 +261,8 @@ class _Recorder:
         self.num_threads = num_threads
         self.wall_offset = wall_offset
         self.eval_time = 0.0
+        #: Seconds spent writing checkpoints (counted in the wall time, not in its split).
+        self.checkpoint_time = 0.0
         self.started = time.perf_counter()
         self.say = say
         self.best: tuple[float, float] | None = None
@@ -340,6 +357,7 @@ def _sb3_callback(
     state: dict[str, Any],
     patience: int | None = None,
     stop_at: float | None = None,
+    split: Callable[[], dict[str, float]] | None = None,
 ) -> Any:
     from stable_baselines3.common.callbacks import BaseCallback
 
@@ -364,9 +382,13 @@ def _sb3_callback(
             return True
 
         def save_checkpoint(self) -> None:
+            began = time.perf_counter()
             saved = {**state, "num_timesteps": self.num_timesteps}
             saved["wall_time_s"] = recorder.wall_time()
+            if split is not None:
+                saved["wall_time_split"] = split()
             checkpoint.save(self.model, out / "checkpoints", saved, recorder.run)
+            recorder.checkpoint_time += time.perf_counter() - began
 
     return Periodic()
 
@@ -422,6 +444,7 @@ def train(
     record's ``final_weights`` says which evaluation's they are."""
     import torch as th
 
+    from .phases import PhaseClock, describe_split
     from .threads import UpdateThreads, all_cores
 
     if env_id not in ENV_IDS:
@@ -496,7 +519,7 @@ def train(
     n = int(n_envs if n_envs is not None else recipe.get("n_envs", 1))
     run.update(n_envs=n, n_timesteps=total)
     algorithm = _algorithm_class(algo)
-    state = {
+    state: dict[str, Any] = {
         "next_eval": eval_every or 0,
         "next_checkpoint": checkpoint_every or 0,
         "wall_time_s": 0.0,
@@ -536,14 +559,24 @@ def train(
     )
     (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
     run["final"] = final
+    clock = PhaseClock(lambda: recorder.eval_time + recorder.checkpoint_time)
+    earlier: Mapping[str, Any] = state.get("wall_time_split") or {}  # a resumed run's first part
+
+    def split() -> dict[str, float]:
+        return {
+            phase: round(float(earlier.get(phase, 0.0)) + seconds, 3)
+            for phase, seconds in clock.split().items()
+        }
+
     periodic = _sb3_callback(
-        recorder, eval_every or 0, checkpoint_every or 0, state, patience, stop_at
+        recorder, eval_every or 0, checkpoint_every or 0, state, patience, stop_at, split
     )
     callbacks = [*_callbacks(recipe.get("callback")), periodic]
     from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
     if isinstance(model, OnPolicyAlgorithm):  # rollouts and updates take turns
         callbacks.append(UpdateThreads(run["update_threads"], rollout=torch_threads))
+    callbacks.append(clock)
     remaining = total - int(model.num_timesteps)
     if remaining > 0:
         model.learn(
@@ -553,6 +586,8 @@ def train(
             reset_num_timesteps=not resume,
             tb_log_name=algo,
         )
+        run["wall_time_split"] = split()
+        say(f"wall time: {describe_split(run['wall_time_split'])}")
     run["env_steps"] = int(model.num_timesteps)
     run["wall_time_s"] = round(recorder.wall_time(), 3)
     last = run.get("last_evaluation") or {}
