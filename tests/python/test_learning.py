@@ -278,10 +278,18 @@ def test_stop_at_ends_a_run_once_validation_reaches_it() -> None:
 
     recorder = _Recorder.__new__(_Recorder)
     recorder.best, recorder.since_best = None, 0
+    recorder.run = {"env_id": "panda_rapier/LiftDense-v0"}  # nothing to place
     line = {"success_rate": 0.96, "placed_rate": 0.0}
     assert recorder._rank(line)
     assert "--stop-at 0.95" in (stop_reason(recorder, line, None, 0.95) or "")
     assert stop_reason(recorder, line, None, 0.97) is None
+    # On a task that places, the cube held at the goal is not enough: it must be let go.
+    recorder.run = {"env_id": "panda_rapier/PickAndPlaceJointsDense-v0"}
+    assert stop_reason(recorder, line, None, 0.95) is None
+    placed = {"success_rate": 0.96, "placed_rate": 0.955}
+    assert "placed 0.955 reached --stop-at 0.95" in (
+        stop_reason(recorder, placed, None, 0.95) or ""
+    )
     assert stop_reason(recorder, line, 3, None) is None
     worse = {"success_rate": 0.5, "placed_rate": 0.0}
     assert not recorder._rank(worse) and not recorder._rank(worse)

@@ -307,7 +307,8 @@ def _parser() -> argparse.ArgumentParser:
         type=_rate,
         default=None,
         metavar="SUCCESS",
-        help="stop once a validation evaluation's success rate reaches SUCCESS (0-1]",
+        help="stop once a validation evaluation's success rate (and placed rate, on tasks "
+        "that place) reaches SUCCESS (0-1]",
     )
     train.add_argument(
         "--final",

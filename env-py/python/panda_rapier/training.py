@@ -53,7 +53,7 @@ from .errors import ConfigError, InvalidArgumentError
 from .model_file import RUN_MEMBER as RUN_MEMBER
 from .model_file import read_run_info as read_run_info
 from .model_file import save_model as save_model
-from .registration import ENV_IDS, env_config
+from .registration import ENV_IDS, TASKS, env_config, variant
 
 __all__ = [
     "ALGORITHMS",
@@ -342,12 +342,28 @@ def stop_reason(
     recorder: _Recorder, line: Mapping[str, Any], patience: int | None, stop_at: float | None
 ) -> str | None:
     """Why training stops after the evaluation ``line`` (``None``: it goes on): its success
-    rate reached ``stop_at``, or ``patience`` evaluations in a row have not beaten the best."""
-    if stop_at is not None and float(line["success_rate"]) >= stop_at:
-        return f"validation success {line['success_rate']:.3f} reached --stop-at {stop_at}"
+    rate (and, on a task that places, its placed rate too) reached ``stop_at``, or
+    ``patience`` evaluations in a row have not beaten the best."""
+    if stop_at is not None:
+        success = float(line["success_rate"])
+        if _places(str(recorder.run["env_id"])):
+            placed = float(line["placed_rate"])
+            if min(success, placed) >= stop_at:
+                return (
+                    f"validation success {success:.3f} and placed {placed:.3f} reached "
+                    f"--stop-at {stop_at}"
+                )
+        elif success >= stop_at:
+            return f"validation success {success:.3f} reached --stop-at {stop_at}"
     if patience is not None and recorder.since_best >= patience:
         return f"{recorder.since_best} evaluations without beating the best (--patience {patience})"
     return None
+
+
+def _places(env_id: str) -> bool:
+    """Whether ``env_id``'s task has a placed rate (the cube also let go and at rest)."""
+    task = variant(env_id)["task"]
+    return any(bool(t["has_placed"]) for t in TASKS if t["name"] == task)
 
 
 def _sb3_callback(
