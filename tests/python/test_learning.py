@@ -410,16 +410,20 @@ def test_reproduce_commands_name_the_recipe_an_old_run_used(tmp_path: Path) -> N
     old = {**today, "gamma": 0.5}
     run["recipe"] = old
     command_now, caveat = _reproducing_command(run, recipes)
-    assert command_now == command and "has changed since this run" in caveat
+    assert command_now == command and "has changed or is not in the repository" in caveat
     _write_recipe(recipes / "a.yml", "ppo", {**today, "gamma": 0.7})
     _write_recipe(recipes / "b.yml", "ppo", old)
     assert _reproducing_command(run, recipes) == (
         [*command[:6], "--conf", (recipes / "b.yml").as_posix(), *command[6:]],
         "",
     )
-    # A command that named its recipe file is left alone.
-    named = {**run, "command": [*command, "--conf", "mine.yml"]}
+    # A command that named a recipe file still there with its recipe is left alone.
+    mine = _write_recipe(tmp_path / "mine.yml", "ppo", {**today, "gamma": 0.3})
+    named = {**run, "recipe": {**today, "gamma": 0.3}, "command": [*command, "--conf", str(mine)]}
     assert _reproducing_command(named, recipes) == (named["command"], "")
+    # A scratch recipe file that is gone, whose recipe is now the package's: no --conf.
+    scratch = {**run, "recipe": dict(today), "command": [*command, "--conf", "gone.yml"]}
+    assert _reproducing_command(scratch, recipes) == (command, "")
 
 
 def test_train_tqc_with_her_saves_its_replay_buffer_and_resumes(tmp_path: Path) -> None:

@@ -293,32 +293,39 @@ def _reproduce(model: Path, run: dict[str, Any], source: dict[str, Any]) -> str:
 
 
 def _reproducing_command(run: dict[str, Any], recipes: Path) -> tuple[list[str], str]:
-    """The recorded ``train`` command of ``run``, made to train as it did on today's package:
-    when the run read the package's recipe and that recipe has changed since, the recipe file
-    in ``recipes`` that trains alike is passed as ``--conf`` (or, without one, a caveat says
-    where the run's recipe is recorded)."""
+    """The recorded ``train`` command of ``run``, made to train as it did on today's package,
+    with the first recipe that trains alike: the package's (no ``--conf``: a scratch recipe
+    file that became the package's), a file in ``recipes`` (a package recipe that has
+    changed since), or the ``--conf`` file the command named if it is still there; without
+    one, a caveat says where the run's recipe is recorded."""
     from .training import load_recipe, recipes_train_alike
 
     command = [str(part) for part in run["command"]]
-    if "--conf" in command or "recipe" not in run:
+    if "recipe" not in run:
         return command, ""
-    try:
-        if recipes_train_alike(load_recipe(run["algo"], run["env_id"]), run["recipe"]):
-            return command, ""
-    except ConfigError:
-        pass
-    for path in sorted(recipes.glob("*.yml")):
+
+    def trains_alike(conf: Path | None) -> bool:
         try:
-            candidate = load_recipe(run["algo"], run["env_id"], path)
-            alike = recipes_train_alike(candidate, run["recipe"])
+            return recipes_train_alike(load_recipe(run["algo"], run["env_id"], conf), run["recipe"])
         except ConfigError:
-            continue
-        if alike:
-            at = command.index("--env-id") + 2 if "--env-id" in command else len(command)
-            return [*command[:at], "--conf", path.as_posix(), *command[at:]], ""
+            return False
+
+    bare, named = list(command), None
+    if "--conf" in command[:-1]:
+        at = command.index("--conf")
+        named = Path(command[at + 1])
+        del bare[at : at + 2]
+    if trains_alike(None):
+        return bare, ""
+    for path in sorted(recipes.glob("*.yml")):
+        if trains_alike(path):
+            at = bare.index("--env-id") + 2 if "--env-id" in bare else len(bare)
+            return [*bare[:at], "--conf", path.as_posix(), *bare[at:]], ""
+    if named is not None and trains_alike(named):
+        return command, ""
     return command, (
-        f"the package's {run['algo']} recipe for this id has changed since this run; the one "
-        "it used is the `recipe` entry of `panda_rapier_run.json` in the zip"
+        f"the {run['algo']} recipe this run read has changed or is not in the repository; the "
+        "one it used is the `recipe` entry of `panda_rapier_run.json` in the zip"
     )
 
 
