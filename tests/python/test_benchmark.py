@@ -5,6 +5,7 @@ what was recorded. Needs no torch: models act through the native network."""
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +18,10 @@ from panda_rapier.registration import env_config
 MODELS = Path(__file__).resolve().parents[2] / "models"
 #: Episodes the reproduction test runs per model: enough that its statistical branch (another
 #: machine) fails a 10-point drop in success 98 % of the time (evaluation.check_reproduction).
-REPRODUCTION_EPISODES = 300
+#: `scripts/test`'s repeats under other kernel paths and masked maths routines run fewer
+#: (PANDA_RAPIER_REPRODUCTION_EPISODES): there every episode must repeat exactly, and a
+#: difference in the arithmetic shows within the first 100 episodes as well.
+REPRODUCTION_EPISODES = int(os.environ.get("PANDA_RAPIER_REPRODUCTION_EPISODES", "300"))
 
 
 @pytest.mark.parametrize("name", sorted(p.name for p in MODELS.glob("*.zip")))
