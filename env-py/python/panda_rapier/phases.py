@@ -7,7 +7,8 @@ the updates.
 and the next one's start, and after the last), reads how long the vector environment spent
 stepping (:attr:`panda_rapier.sb3.PandaVecEnv.step_seconds`) and times the policy's forward
 passes with module hooks (in PPO's rollouts ``policy(obs)`` is the only ``forward`` call;
-updates call ``evaluate_actions``). Time spent in periodic evaluations and checkpoints
+updates call ``evaluate_actions``; SAC and TQC act through ``predict``, so their forward
+passes count as other rollout work). Time spent in periodic evaluations and checkpoints
 (``excluded``) is taken out of the rollouts. ``panda-rapier train`` records the split in
 ``run.json`` (``wall_time_split``) and prints it at the end.
 """
