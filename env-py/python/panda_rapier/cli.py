@@ -1,5 +1,8 @@
 """The ``panda-rapier`` command line.
 
+Over 600 lines: one parser per subcommand with its help texts, and each subcommand's thin
+runner; the work itself lives in the modules the runners call.
+
 ::
 
     panda-rapier eval --policy scripted --episodes 1000 --num-envs 32 --seed 0
@@ -494,18 +497,33 @@ def _run_models_table(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_bench(args: argparse.Namespace) -> int:
+@contextlib.contextmanager
+def _run_bar(desc: str, quiet: bool) -> Any:
+    """A progress bar of runs on stderr, yielding the ``progress(done, total, label)``
+    callback the benchmarks call."""
     from tqdm import tqdm
 
-    from .bench import format_report, run_benchmark, to_json
-
-    with tqdm(desc="bench", unit="run", disable=args.quiet, file=sys.stderr) as bar:
+    with tqdm(desc=desc, unit="run", disable=quiet, file=sys.stderr) as bar:
 
         def progress(done: int, total: int, label: str) -> None:
             bar.total = total
             bar.set_postfix_str(label)
             bar.update(done - bar.n)
 
+        yield progress
+
+
+def _write_report(path: Path | None, text: str) -> None:
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+        print(f"report written to {path}")
+
+
+def _run_bench(args: argparse.Namespace) -> int:
+    from .bench import format_report, run_benchmark, to_json
+
+    with _run_bar("bench", args.quiet) as progress:
         report = run_benchmark(
             env_id=args.env_id,
             num_envs=args.num_envs,
@@ -520,35 +538,21 @@ def _run_bench(args: argparse.Namespace) -> int:
             arm=args.arm,
         )
     print(format_report(report))
-    if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(to_json(report))
-        print(f"report written to {args.json}")
+    _write_report(args.json, to_json(report))
     return 0
 
 
 def _run_bench_train(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
-
     from .train_bench import benchmark_training, format_training_report, parse_variant
 
     variants = [parse_variant(tokens) for tokens in (args.variant or [["recipe"]])]
-    with tqdm(desc="bench-train", unit="run", disable=args.quiet, file=sys.stderr) as bar:
-
-        def progress(done: int, total: int, label: str) -> None:
-            bar.total = total
-            bar.set_postfix_str(label)
-            bar.update(done - bar.n)
-
+    with _run_bar("bench-train", args.quiet) as progress:
         report = benchmark_training(
             args.algo, args.env_id, variants, steps=args.steps, rounds=args.rounds,
             conf=args.conf, progress=progress,
         )  # fmt: skip
     print(format_training_report(report))
-    if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(report, indent=1) + "\n")
-        print(f"report written to {args.json}")
+    _write_report(args.json, json.dumps(report, indent=1) + "\n")
     return 0
 
 
