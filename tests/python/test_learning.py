@@ -336,6 +336,56 @@ def test_train_init_from_starts_from_another_models_weights(tmp_path: Path) -> N
     assert marker.exists()
 
 
+def test_fine_tuning_a_cloned_policy_takes_its_actor_and_warms_the_critic_up(
+    tmp_path: Path,
+) -> None:
+    """From a cloned policy (a bc run's model), --init-from copies the actor and the
+    normaliser but leaves the value network (here of another size) and the action noise as
+    the recipe makes them; CriticWarmup then trains the value function alone: after the run
+    the actor is still exactly the cloned one and the critic has moved."""
+    cloned = Path(__file__).resolve().parents[2] / "models" / "bc-dagger-Stack-v0.zip"
+    recipe = {
+        "n_envs": 2, "n_steps": 16, "batch_size": 32, "n_epochs": 2,
+        "policy_kwargs": "dict(features_extractor_class=NormalizedFlatten, net_arch=dict("
+                         "pi=[256, 256, 256], vf=[16]), activation_fn=nn.ReLU, log_std_init=-2.0)",
+        "callback": [{"panda_rapier.finetune.CriticWarmup": {"steps": 100}}],
+    }  # fmt: skip
+    conf = tmp_path / "ppo.yml"
+    conf.write_text(yaml.safe_dump({"panda_rapier/StackDense-v0": recipe}))
+    assert main(["train", "--algo", "ppo", "--env-id", "panda_rapier/StackDense-v0",
+                 "--conf", str(conf), "--quiet", "--eval-every", "0", "--checkpoint-every", "0",
+                 "--timesteps", "64", "--out", str(tmp_path / "a"),
+                 "--init-from", str(cloned)]) == 0  # fmt: skip
+    source = PPO.load(cloned, device="cpu").policy.state_dict()
+    tuned = PPO.load(tmp_path / "a" / "model.zip", device="cpu").policy.state_dict()
+    actor = [k for k in source if k.startswith(("mlp_extractor.policy_net", "action_net"))]
+    assert actor and all(th.equal(tuned[k], source[k]) for k in actor)
+    assert th.equal(tuned["features_extractor.scale"], source["features_extractor.scale"])
+    assert th.allclose(tuned["log_std"], th.full_like(tuned["log_std"], -2.0))
+    assert tuned["mlp_extractor.value_net.0.weight"].shape[0] == 16
+    # Past the warm-up the actor trains too.
+    assert main(["train", "--algo", "ppo", "--env-id", "panda_rapier/StackDense-v0",
+                 "--conf", str(conf), "--quiet", "--eval-every", "0", "--checkpoint-every", "0",
+                 "--timesteps", "128", "--out", str(tmp_path / "b"),
+                 "--init-from", str(cloned)]) == 0  # fmt: skip
+    later = PPO.load(tmp_path / "b" / "model.zip", device="cpu").policy.state_dict()
+    assert not all(th.equal(later[k], source[k]) for k in actor)
+
+
+def test_critic_warmup_refuses_what_it_cannot_do() -> None:
+    from sb3_contrib import TQC
+
+    from panda_rapier.finetune import CriticWarmup
+
+    for bad in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="whole number"):
+            CriticWarmup(steps=bad)  # type: ignore[arg-type]
+    env = make_vec_env("panda_rapier/ReachDense-v0", n_envs=1, seed=0)
+    tqc = TQC("MultiInputPolicy", env, learning_starts=0, buffer_size=100, device="cpu")
+    with pytest.raises(TypeError, match="value network"):
+        tqc.learn(2, callback=CriticWarmup(steps=10))
+
+
 def test_recipes_are_rl_zoo3_files_and_bad_ones_are_refused(tmp_path: Path) -> None:
     recipe = load_recipe("ppo", "panda_rapier/PickAndPlaceDense-v0")
     assert recipe["policy"] == "MultiInputPolicy" and "NormalizedFlatten" in recipe["policy_kwargs"]

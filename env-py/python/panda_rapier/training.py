@@ -440,7 +440,10 @@ def train(
     module's documentation); returns the run record. ``timesteps`` and ``n_envs`` override
     the recipe's; ``env_kwargs`` are added to the recipe's environment options. ``init_from``
     (a model saved by this algorithm, with the same observation and action spaces) gives the
-    network its starting weights, observation normaliser included: fine-tuning. The run record
+    network its starting weights, observation normaliser included: fine-tuning. From a cloned
+    policy (a ``bc`` run's model, for ``ppo``) only its actor and normaliser are taken
+    (:func:`_load_weights`); the recipe's ``panda_rapier.finetune.CriticWarmup`` then lets
+    the new value function catch up before the actor changes. The run record
     keeps that model's own run record, so its training time can be added up. ``resume`` goes
     on from ``out``'s checkpoint with the recipe and options the run recorded, reading the
     checkpoint by data (:mod:`panda_rapier.checkpoint`; ``trust`` lets it unpickle a replay
@@ -561,8 +564,13 @@ def train(
         say(f"resuming {out} at {model.num_timesteps:,} steps")
     else:
         if init_from is not None:
-            _load_weights(model, Path(init_from))
+            kept = _load_weights(model, Path(init_from))
             say(f"starting from the weights of {init_from}")
+            if kept:
+                say(
+                    "a cloned policy: its actor and observation normaliser are taken; the "
+                    "value function and action noise start as the recipe makes them"
+                )
     recorder = _Recorder(
         out,
         config,
@@ -648,11 +656,24 @@ def _check_stopping(
         )
 
 
-def _load_weights(model: Any, path: Path) -> None:
+#: The parameters a cloned policy (``--algo bc``) never trained: behaviour cloning fits the
+#: action mean only, so its value function and action noise are the network's initial ones.
+UNTRAINED_BY_CLONING = (
+    "mlp_extractor.value_net.",
+    "value_net.",
+    "vf_features_extractor.",
+    "log_std",
+)
+
+
+def _load_weights(model: Any, path: Path) -> list[str]:
     """Copies the policy weights (normaliser buffers included) of the model file at ``path``
     into ``model``, reading the file by data alone (:func:`~panda_rapier.model_file.
     read_model_file`: nothing in it is unpickled); other spaces or another architecture are an
-    :class:`InvalidArgumentError`."""
+    :class:`InvalidArgumentError`. From a cloned policy (a ``bc`` run's model) only what
+    cloning trained is copied, the actor and the observation normaliser: the value function
+    and the action noise (:data:`UNTRAINED_BY_CLONING`) stay the recipe's, whose value network
+    may then have any size. Returns the names of the entries left as the recipe made them."""
     import torch as th
 
     from .inference import space_mismatch
@@ -663,15 +684,21 @@ def _load_weights(model: Any, path: Path) -> None:
     if mismatch is not None:
         raise InvalidArgumentError(f"--init-from {path}: its {mismatch} (this environment's)")
     target = model.policy.state_dict()
+    source_run = read_run_info(path) or {}
+    kept: list[str] = []
+    if source_run.get("algo") == "bc":
+        kept = sorted(k for k in target if k.startswith(UNTRAINED_BY_CLONING))
+        weights = {k: v for k, v in weights.items() if not k.startswith(UNTRAINED_BY_CLONING)}
     shapes = {k: tuple(v.shape) for k, v in weights.items()}
-    wanted = {k: tuple(v.shape) for k, v in target.items()}
+    wanted = {k: tuple(v.shape) for k, v in target.items() if k not in kept}
     if shapes != wanted:
         differ = sorted(set(shapes.items()) ^ set(wanted.items()))[:4]
         raise InvalidArgumentError(
             f"--init-from {path}: its network does not match the recipe's (first differences, "
             f"name and shape: {differ})"
         )
-    model.policy.load_state_dict({k: th.as_tensor(v) for k, v in weights.items()})
+    model.policy.load_state_dict({**target, **{k: th.as_tensor(v) for k, v in weights.items()}})
+    return kept
 
 
 def _cpu_count() -> int:
