@@ -69,7 +69,7 @@ fn tasks(py: Python<'_>) -> PyResult<Vec<Bound<'_, pyo3::types::PyDict>>> {
 /// definition (in the core) that Python builds its spaces, dict splitting and reward contexts
 /// from. Keys: `task`, `goal_dim`, `flat_dim`, `action_dim`, `observation` (a list of slots:
 /// `name`, `key` of the goal dict it belongs to, `start`, `stop` in the flat vector,
-/// `description`), `info` (a list of `key`, `dtype`, `description`) and
+/// `description`, `source`: `goal`, `robot` or `task`, whose state it reports), `info` (a list of `key`, `dtype`, `description`) and
 /// `reward_context_keys` (the info keys `compute_reward` reads, in order).
 #[pyfunction]
 fn schema<'py>(py: Python<'py>, config_json: &str) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
@@ -98,6 +98,7 @@ fn schema<'py>(py: Python<'py>, config_json: &str) -> PyResult<Bound<'py, pyo3::
             d.set_item("start", slot.range.start)?;
             d.set_item("stop", slot.range.end)?;
             d.set_item("description", slot.description)?;
+            d.set_item("source", slot.source.as_str())?;
             Ok(d)
         })
         .collect::<PyResult<Vec<_>>>()?;

@@ -1,6 +1,6 @@
-"""Image observations: ``obs_mode="rgb"`` / ``"state+rgb"`` on the single, vector and
-stable-baselines3 environments, their determinism, final observations, bad options, the
-benchmark, evaluation of a pixel policy and a pixel PPO smoke run."""
+"""Image observations: ``obs_mode="rgb"``, ``"state+rgb"``, ``"proprio+rgb"`` on the single,
+vector and stable-baselines3 environments, their determinism, final observations, bad options,
+the benchmark, evaluation of a pixel policy and a pixel PPO smoke run."""
 
 from __future__ import annotations
 
@@ -33,6 +33,7 @@ def _keys(obs: dict[str, Any]) -> set[str]:
         ("state", {"achieved_goal", "desired_goal", "observation"}),
         ("rgb", {"achieved_goal", "desired_goal", "rgb"}),
         ("state+rgb", {"achieved_goal", "desired_goal", "observation", "rgb"}),
+        ("proprio+rgb", {"desired_goal", "proprioception", "rgb"}),
     ],
 )
 def test_obs_modes_give_their_keys_and_pass_the_checker(obs_mode: str, keys: set[str]) -> None:
@@ -189,6 +190,57 @@ def test_bad_image_options_are_config_errors(kwargs: dict[str, Any]) -> None:
         gym.make(ENV_ID, **kwargs)
     with pytest.raises(ConfigError):
         PandaVectorEnv(2, **env_config(ENV_ID), **kwargs)
+
+
+@pytest.mark.parametrize("env_id", [ENV_ID, "panda_rapier/StackJoints-v0"])
+def test_proprio_rgb_carries_no_object_state(env_id: str) -> None:
+    """Moving the cube (same seed, so the same robot state; the same goal) changes the images
+    and no other entry; the proprioception is exactly the robot's slots of the state."""
+    from panda_rapier import _common
+
+    def first_steps(cube: list[float]) -> list[dict[str, np.ndarray]]:
+        env = gym.make(env_id, obs_mode="proprio+rgb")
+        # The same seed draws the same goal and robot state whatever the cube override.
+        obs, _ = env.reset(seed=5, options={"cube_position": cube})
+        out = [obs]
+        action = np.zeros(env.action_space.shape, np.float32)
+        for _ in range(3):
+            obs, *_ = env.step(action)
+            out.append(obs)
+        env.close()
+        return out
+
+    a = first_steps([0.45, -0.12, 0.025])
+    b = first_steps([0.58, -0.02, 0.025])
+    for one, other in zip(a, b, strict=True):
+        assert set(one) == {"desired_goal", "proprioception", "rgb"}
+        np.testing.assert_array_equal(one["proprioception"], other["proprioception"])
+        np.testing.assert_array_equal(one["desired_goal"], other["desired_goal"])
+        assert not np.array_equal(one["rgb"], other["rgb"])
+    state_env = gym.make(env_id, obs_mode="state")
+    state, _ = state_env.reset(seed=5, options={"cube_position": [0.45, -0.12, 0.025]})
+    schema = state_env.unwrapped._schema
+    flat = np.concatenate([state[k] for k in _common.DICT_KEYS])
+    np.testing.assert_array_equal(a[0]["proprioception"], flat[schema.source_part("robot")])
+    assert a[0]["proprioception"].shape == (25,)
+    state_env.close()
+
+
+def test_a_model_s_image_options_are_read_off_its_space() -> None:
+    from panda_rapier.model_file import model_observation
+
+    for mode in ("rgb", "state+rgb", "proprio+rgb"):
+        env = gym.make(ENV_ID, obs_mode=mode, image_size=(48, 64))
+        assert model_observation(env.observation_space) == {
+            "obs_mode": mode,
+            "image_size": (48, 64),
+        }
+        env.close()
+
+
+def test_cameras_cannot_take_a_state_key() -> None:
+    with pytest.raises(ConfigError, match="proprioception"):
+        gym.make(ENV_ID, obs_mode="proprio+rgb", cameras={"proprioception": {}})
 
 
 def test_the_scripted_policy_needs_the_state() -> None:

@@ -33,7 +33,7 @@ pub use episode::{
 pub use lift::{Lift, LiftConfig};
 pub use migrate::{Deprecation, LEGACY_KEYS_REMOVED_IN};
 pub use observation::{
-    info_field, InfoField, InfoType, InfoValue, ObservationLayout, Slot, SlotSpec,
+    info_field, InfoField, InfoType, InfoValue, ObservationLayout, Slot, SlotSource, SlotSpec,
     COMMON_INFO_FIELDS,
 };
 pub use pick_and_place::{PickAndPlace, PickAndPlaceConfig};

@@ -66,6 +66,30 @@ pub const GRIPPER_WIDTH: usize = 4;
 /// The goal dict's keys, in flat order.
 pub const DICT_KEYS: [&str; 3] = ["achieved_goal", "desired_goal", "observation"];
 
+/// Whose state a slot reports: what a policy may see without privileged state is the robot's
+/// own (its proprioception) and the commanded goal.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SlotSource {
+    /// A goal of the goal dict (`achieved_goal`: the simulator's object state; `desired_goal`:
+    /// the command).
+    Goal,
+    /// The robot's own state ([`ROBOT_SLOTS`]): joint encoders and what follows from them.
+    Robot,
+    /// The task's objects (cube poses and velocities): privileged simulator state.
+    Task,
+}
+
+impl SlotSource {
+    /// Its name in the Python schema (`goal`, `robot`, `task`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SlotSource::Goal => "goal",
+            SlotSource::Robot => "robot",
+            SlotSource::Task => "task",
+        }
+    }
+}
+
 /// One slot with its place in the flat vector.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Slot {
@@ -78,6 +102,8 @@ pub struct Slot {
     pub range: Range<usize>,
     /// What it holds.
     pub description: &'static str,
+    /// Whose state it reports.
+    pub source: SlotSource,
 }
 
 /// Where everything sits in the flat observation of one task on one robot.
@@ -117,22 +143,29 @@ impl ObservationLayout {
                 key: DICT_KEYS[0],
                 range: 0..goal_dim,
                 description: goal_description[0],
+                source: SlotSource::Goal,
             },
             Slot {
                 name: DICT_KEYS[1],
                 key: DICT_KEYS[1],
                 range: goal_dim..2 * goal_dim,
                 description: goal_description[1],
+                source: SlotSource::Goal,
             },
         ];
         let mut start = 2 * goal_dim;
-        for spec in ROBOT_SLOTS.iter().chain(task_slots) {
+        let sourced = ROBOT_SLOTS
+            .iter()
+            .map(|spec| (spec, SlotSource::Robot))
+            .chain(task_slots.iter().map(|spec| (spec, SlotSource::Task)));
+        for (spec, source) in sourced {
             let n = spec.size.unwrap_or(num_joints);
             slots.push(Slot {
                 name: spec.name,
                 key: DICT_KEYS[2],
                 range: start..start + n,
                 description: spec.description,
+                source,
             });
             start += n;
         }
@@ -364,6 +397,16 @@ mod tests {
         assert_eq!(
             layout.robot_slot(TCP_POSITION),
             layout.slot("tcp_position").unwrap()
+        );
+        // Goals, then the robot's own slots, then the task's: each source together.
+        let sources: Vec<_> = layout.slots().iter().map(|s| s.source).collect();
+        let mut expected = vec![SlotSource::Goal; 2];
+        expected.extend([SlotSource::Robot; ROBOT_SLOTS.len()]);
+        expected.push(SlotSource::Task);
+        assert_eq!(sources, expected);
+        assert_eq!(
+            [SlotSource::Goal, SlotSource::Robot, SlotSource::Task].map(SlotSource::as_str),
+            ["goal", "robot", "task"]
         );
     }
 

@@ -73,6 +73,18 @@ class Schema:
         """Length of the dict's ``observation`` entry."""
         return self.flat_dim - 2 * self.goal_dim
 
+    def source_part(self, source: str) -> slice:
+        """Where the slots reporting ``source``'s state (``goal``, ``robot`` or ``task``, as
+        the native schema marks them) sit together in the flat vector: ``robot`` is the
+        robot's own state, its proprioception."""
+        ranges = [(s["start"], s["stop"]) for s in self.slots if s.get("source") == source]
+        if not ranges:
+            raise InvalidArgumentError(f"no observation slot reports {source!r} state")
+        start, stop = ranges[0][0], ranges[-1][1]
+        if sum(b - a for a, b in ranges) != stop - start:  # the native layout keeps them together
+            raise InvalidArgumentError(f"the {source!r} slots are not contiguous: {ranges}")
+        return slice(start, stop)
+
     def slot(self, name: str) -> slice:
         """Where the slot ``name`` (``tcp_position``, ``cube_position``, ...) sits in the flat
         vector."""

@@ -76,7 +76,10 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     plus ``show_goal``, default False). ``achieved_goal`` and ``desired_goal`` stay, for
     ``compute_reward`` and hindsight relabelling (``achieved_goal`` is the object's position:
     drop it, e.g. with ``gymnasium.wrappers.FilterObservation``, for a policy that must see the
-    object only in pictures). Images are bit-identical for the same state. SB3's
+    object only in pictures, or use ``"proprio+rgb"``: the images, the robot's own state as
+    ``proprioception`` (joint positions and velocities, TCP position and velocity, gripper
+    width) and ``desired_goal``, nothing of the object's state). Images are bit-identical for
+    the same state. SB3's
     ``MultiInputPolicy`` takes them as they are (it transposes images for its CNN).
 
     ## Action Space

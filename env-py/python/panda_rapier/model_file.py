@@ -317,6 +317,12 @@ def model_observation(space: Any) -> dict[str, Any]:
     # Saved as SB3's VecTransposeImage passed it on: channels first.
     height, width = (shape[1], shape[2]) if shape[0] == 3 else (shape[0], shape[1])
     return {
-        "obs_mode": "state+rgb" if "observation" in space.spaces else "rgb",
+        "obs_mode": (
+            "state+rgb"
+            if "observation" in space.spaces
+            else "proprio+rgb"
+            if "proprioception" in space.spaces
+            else "rgb"
+        ),
         "image_size": (int(height), int(width)),
     }

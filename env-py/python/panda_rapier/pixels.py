@@ -1,8 +1,12 @@
-"""Image observations (``obs_mode="rgb"`` / ``"state+rgb"``): camera images from the CPU
-renderer in the observation dict, for the single, vector and stable-baselines3 environments.
+"""Image observations (``obs_mode="rgb"``, ``"state+rgb"``, ``"proprio+rgb"``): camera
+images from the CPU renderer in the observation dict, for the single, vector and
+stable-baselines3 environments.
 
 Every environment class reads its observation layout from one :class:`ObservationSpec`: the
 state keys the task's schema gives, plus one uint8 ``(height, width, 3)`` image per camera.
+``"proprio+rgb"`` is what a policy without privileged state sees: the images, the robot's own
+state (``proprioception``: the slots the native schema marks ``robot``) and the commanded goal
+(``desired_goal``); nothing of the simulator's object state, not even ``achieved_goal``.
 """
 
 from __future__ import annotations
@@ -18,8 +22,15 @@ from gymnasium import spaces
 from . import _common, _native
 from .errors import ConfigError
 
-#: The observation modes: the state vector (default), camera images, or both.
-OBS_MODES = ("state", "rgb", "state+rgb")
+#: The observation modes: the state vector (default), camera images with the goals, both, or
+#: camera images with the robot's own state and the commanded goal only (no object state).
+OBS_MODES = ("state", "rgb", "state+rgb", "proprio+rgb")
+
+#: The key of the robot's own state in ``"proprio+rgb"`` observations.
+PROPRIOCEPTION_KEY = "proprioception"
+
+#: Keys a camera cannot take: the state entries of every mode.
+RESERVED_KEYS = (*_common.DICT_KEYS, PROPRIOCEPTION_KEY)
 
 #: Default image size (pixels, square), a common size for pixel-based RL (Atari's 84x84).
 DEFAULT_IMAGE_SIZE = 84
@@ -66,6 +77,8 @@ class ObservationSpec:
         """The state entries of the dict."""
         if self.mode == "rgb":
             return ("achieved_goal", "desired_goal")
+        if self.mode == "proprio+rgb":
+            return ("desired_goal", PROPRIOCEPTION_KEY)
         return _common.DICT_KEYS
 
     @property
@@ -75,7 +88,14 @@ class ObservationSpec:
 
     def space(self) -> spaces.Dict:
         """The observation space of one environment."""
-        state = _common.observation_space(self.schema)
+        state = dict(_common.observation_space(self.schema).spaces)
+        robot = self.schema.source_part("robot")
+        state[PROPRIOCEPTION_KEY] = spaces.Box(
+            -_common.OBSERVATION_BOUND,
+            _common.OBSERVATION_BOUND,
+            shape=(robot.stop - robot.start,),
+            dtype=np.float32,
+        )
         entries: dict[str, spaces.Space[Any]] = {key: state[key] for key in self.state_keys}
         for key, shape in zip(self.image_keys, self.image_shapes, strict=True):
             entries[key] = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
@@ -85,6 +105,10 @@ class ObservationSpec:
         """The observation dict from the flat state (``(d,)`` or ``(n, d)``) and the native
         image bytes (``(bytes,)`` or ``(n, bytes)``; ``None`` without cameras)."""
         parts = _common.split_observation(flat, self.schema)
+        if PROPRIOCEPTION_KEY in self.state_keys:
+            parts[PROPRIOCEPTION_KEY] = np.ascontiguousarray(
+                flat[..., self.schema.source_part("robot")]
+            )
         obs = {key: parts[key] for key in self.state_keys}
         if images is not None:
             lead = images.shape[:-1]
@@ -150,9 +174,9 @@ def observation_spec(
         )
     entries = []
     for key, options in cameras.items():
-        if not isinstance(key, str) or key in _common.DICT_KEYS or not key:
+        if not isinstance(key, str) or key in RESERVED_KEYS or not key:
             raise ConfigError(
-                f"camera keys must be non-empty strings other than {_common.DICT_KEYS}, got {key!r}"
+                f"camera keys must be non-empty strings other than {RESERVED_KEYS}, got {key!r}"
             )
         if not isinstance(options, Mapping):
             raise ConfigError(f"cameras[{key!r}] must be a dict of camera options, got {options!r}")
