@@ -19,10 +19,9 @@ from __future__ import annotations
 
 from stable_baselines3.common.callbacks import BaseCallback
 
-__all__ = ["CriticWarmup"]
+from .training import VALUE_PREFIXES
 
-#: Parameter-name prefixes of the value function in SB3's actor-critic policies.
-VALUE_PREFIXES = ("mlp_extractor.value_net.", "value_net.", "vf_features_extractor.")
+__all__ = ["CriticWarmup"]
 
 
 class CriticWarmup(BaseCallback):

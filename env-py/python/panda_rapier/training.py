@@ -656,14 +656,12 @@ def _check_stopping(
         )
 
 
+#: Parameter-name prefixes of the value function in SB3's actor-critic policies.
+VALUE_PREFIXES = ("mlp_extractor.value_net.", "value_net.", "vf_features_extractor.")
+
 #: The parameters a cloned policy (``--algo bc``) never trained: behaviour cloning fits the
 #: action mean only, so its value function and action noise are the network's initial ones.
-UNTRAINED_BY_CLONING = (
-    "mlp_extractor.value_net.",
-    "value_net.",
-    "vf_features_extractor.",
-    "log_std",
-)
+UNTRAINED_BY_CLONING = (*VALUE_PREFIXES, "log_std")
 
 
 def _load_weights(model: Any, path: Path) -> list[str]:
