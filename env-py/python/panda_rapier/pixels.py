@@ -11,6 +11,7 @@ state (``proprioception``: the slots the native schema marks ``robot``) and the 
 
 from __future__ import annotations
 
+import functools
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -81,6 +82,11 @@ class ObservationSpec:
             return ("desired_goal", PROPRIOCEPTION_KEY)
         return _common.DICT_KEYS
 
+    @functools.cached_property
+    def _proprioception(self) -> slice:
+        """Where the robot's own state sits in the flat vector (looked up once, not per step)."""
+        return self.schema.source_part("robot")
+
     @property
     def has_images(self) -> bool:
         """Whether observations carry images."""
@@ -89,13 +95,14 @@ class ObservationSpec:
     def space(self) -> spaces.Dict:
         """The observation space of one environment."""
         state = dict(_common.observation_space(self.schema).spaces)
-        robot = self.schema.source_part("robot")
-        state[PROPRIOCEPTION_KEY] = spaces.Box(
-            -_common.OBSERVATION_BOUND,
-            _common.OBSERVATION_BOUND,
-            shape=(robot.stop - robot.start,),
-            dtype=np.float32,
-        )
+        if PROPRIOCEPTION_KEY in self.state_keys:
+            robot = self._proprioception
+            state[PROPRIOCEPTION_KEY] = spaces.Box(
+                -_common.OBSERVATION_BOUND,
+                _common.OBSERVATION_BOUND,
+                shape=(robot.stop - robot.start,),
+                dtype=np.float32,
+            )
         entries: dict[str, spaces.Space[Any]] = {key: state[key] for key in self.state_keys}
         for key, shape in zip(self.image_keys, self.image_shapes, strict=True):
             entries[key] = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
@@ -106,9 +113,7 @@ class ObservationSpec:
         image bytes (``(bytes,)`` or ``(n, bytes)``; ``None`` without cameras)."""
         parts = _common.split_observation(flat, self.schema)
         if PROPRIOCEPTION_KEY in self.state_keys:
-            parts[PROPRIOCEPTION_KEY] = np.ascontiguousarray(
-                flat[..., self.schema.source_part("robot")]
-            )
+            parts[PROPRIOCEPTION_KEY] = np.ascontiguousarray(flat[..., self._proprioception])
         obs = {key: parts[key] for key in self.state_keys}
         if images is not None:
             lead = images.shape[:-1]
