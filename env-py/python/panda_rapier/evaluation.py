@@ -221,8 +221,10 @@ def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float,
 #: observations, the image rows) to action rows.
 Actor = Callable[[np.ndarray, np.ndarray | None], np.ndarray]
 #: Called by :func:`evaluate` before every step with the flat observations, the actions about
-#: to be taken and, per environment, the episode it runs (``None`` once it has no more).
-StepHook = Callable[[np.ndarray, np.ndarray, list[int | None]], None]
+#: to be taken and, per environment, the episode it runs (``None`` once it has no more); with
+#: image observations, also with the image rows (the native bytes, ``(n, bytes)``) as a fourth
+#: argument.
+StepHook = Callable[..., None]
 
 
 def _actor(
@@ -318,7 +320,10 @@ def evaluate(
         actions = np.ascontiguousarray(act(observations, images), dtype=np.float32)
         running = evaluation.running()
         if on_step is not None:
-            on_step(observations, actions, running)
+            if images is None:
+                on_step(observations, actions, running)
+            else:
+                on_step(observations, actions, running, images)
         ended = evaluation.step(actions)
         # Environment 0's state after the step: the last frame of an episode that just ended.
         if recorder is not None and running[0] is not None:

@@ -41,6 +41,7 @@ from .model_file import (
     read_run_info,
     saved_spaces,
 )
+from .pixels import split_options
 from .policy import RandomPolicy, ScriptedPolicy, observation_rows
 from .registration import DEFAULT_ENV_ID, ENV_IDS, env_config
 
@@ -424,6 +425,22 @@ def load_policy(
         )
     overrides = dict(overrides)
     fallback = None
+    run = read_run_info(path)
+    if isinstance(run, Mapping) and isinstance(run.get("student"), Mapping):
+        # A policy that sees (panda_rapier.student): rebuilt and filled by data, in torch.
+        if inference == "native":
+            raise UnsupportedModelError(f"{path} is a student acting on images: torch only")
+        try:
+            from .student import load_student
+        except ImportError as error:
+            raise ImportError(
+                "evaluating a policy that sees needs torch and stable-baselines3: "
+                "pip install 'panda-rapier[train]'"
+            ) from error
+        student = load_student(path)
+        shape = getattr(student.policy.action_space, "shape", None)
+        overrides.setdefault("control_mode", "joints" if shape == (8,) else "ee")
+        return student, overrides, student.observation, None
     if inference != "torch":
         try:
             policy = PolicyNetwork.from_zip(path)
@@ -501,6 +518,8 @@ def resolve_policy(
     recorded: dict[str, Any] = dict(options) if isinstance(options, dict) else {}
     chosen = env_id or recorded_id or DEFAULT_ENV_ID
     overrides = {**(recorded if chosen == recorded_id else {}), **overrides}
+    # The observation options (obs_mode, ...) come from the model itself (load_policy).
+    overrides = split_options(overrides)[0]
     policy, overrides, observation, fallback = load_policy(
         path, chosen, overrides, algo, inference, trust
     )

@@ -33,6 +33,10 @@ PROPRIOCEPTION_KEY = "proprioception"
 #: Keys a camera cannot take: the state entries of every mode.
 RESERVED_KEYS = (*_common.DICT_KEYS, PROPRIOCEPTION_KEY)
 
+#: The options that choose what an observation holds, as every environment class takes them;
+#: the others configure the simulation (:func:`split_options`).
+OBSERVATION_OPTIONS = ("obs_mode", "image_size", "cameras")
+
 #: Default image size (pixels, square), a common size for pixel-based RL (Atari's 84x84).
 DEFAULT_IMAGE_SIZE = 84
 
@@ -207,3 +211,12 @@ def observation_spec(
         image_shapes=tuple(tuple(shape) for shape in native.shapes),  # type: ignore[misc]
         cameras_json=cameras_json,
     )
+
+
+def split_options(options: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``options`` (as ``gym.make`` or a training run's ``env_kwargs`` take them) split into the
+    simulation's configuration and the observation options (:data:`OBSERVATION_OPTIONS`, which
+    :func:`~panda_rapier.evaluation.evaluate` takes as keywords)."""
+    config = {k: v for k, v in options.items() if k not in OBSERVATION_OPTIONS}
+    observation = {k: v for k, v in options.items() if k in OBSERVATION_OPTIONS}
+    return config, observation

@@ -53,6 +53,7 @@ from .errors import ConfigError, InvalidArgumentError
 from .model_file import RUN_MEMBER as RUN_MEMBER
 from .model_file import read_run_info as read_run_info
 from .model_file import save_model as save_model
+from .pixels import split_options
 from .registration import ENV_IDS, TASKS, env_config, variant
 
 __all__ = [
@@ -101,6 +102,20 @@ _BC_KEYS = {
     "batch_size": 256,
     "learning_rate": 1e-3,
 }
+# A bc recipe with a ``student`` entry: DAgger of a policy that sees (panda_rapier.student).
+_STUDENT_KEYS = {
+    "env_kwargs": None,
+    "student": None,
+    "n_envs": 32,
+    "demo_episodes": 200,
+    "dagger_rounds": 8,
+    "dagger_episodes": 200,
+    "first_updates": 3000,
+    "round_updates": 1500,
+    "final_updates": 4000,
+    "batch_size": 128,
+    "learning_rate": 3e-4,
+}
 
 
 def _yaml() -> Any:
@@ -140,10 +155,11 @@ def load_recipe(algo: str, env_id: str, conf: str | Path | None = None) -> dict[
             "self-contained"
         )
     if algo == "bc":
-        unknown = set(recipe) - set(_BC_KEYS)
+        keys = _STUDENT_KEYS if "student" in recipe else _BC_KEYS
+        unknown = set(recipe) - set(keys)
         if unknown:
-            raise ConfigError(f"unknown bc recipe keys {sorted(unknown)}; known: {list(_BC_KEYS)}")
-        return {**_BC_KEYS, **recipe}
+            raise ConfigError(f"unknown bc recipe keys {sorted(unknown)}; known: {list(keys)}")
+        return {**keys, **recipe}
     return recipe
 
 
@@ -252,8 +268,11 @@ class _Recorder:
         wall_offset: float = 0.0,
         say: Callable[[str], None] = print,
         on_evaluation: Callable[[dict[str, Any]], None] | None = None,
+        observation: Mapping[str, Any] | None = None,
     ) -> None:
         self.out = out
+        #: The observation options the policy acts on (``obs_mode``, ``image_size``, ...).
+        self.observation = dict(observation or {})
         self.on_evaluation = on_evaluation
         self.config = dict(config)
         self.run = run
@@ -298,6 +317,7 @@ class _Recorder:
             num_envs=min(32, self.episodes),
             first_seed=VALIDATION_FIRST_SEED,
             num_threads=self.num_threads,
+            **self.observation,
         )
         self.eval_time += time.perf_counter() - began
         summary = report.summary()
@@ -473,7 +493,7 @@ def train(
     out = Path(out)
     recipe = load_recipe(algo, env_id, conf)
     options = {**dict(recipe.get("env_kwargs") or {}), **dict(env_kwargs or {})}
-    config = env_config(env_id, **options)
+    config = env_config(env_id, **split_options(options)[0])
     train_seed = TRAIN_FIRST_SEED + 1_000_000 * int(seed)
     state_file = out / "checkpoints" / "state.json"
     if resume:
@@ -489,9 +509,10 @@ def train(
             recipe = previous["recipe"]
         recorded = previous.get("env_kwargs")
         options = {**(recorded if isinstance(recorded, dict) else {}), **dict(env_kwargs or {})}
-        config = env_config(env_id, **options)
+        config = env_config(env_id, **split_options(options)[0])
     elif (out / "run.json").exists():
         raise InvalidArgumentError(f"{out} already holds a run: pass --resume or another --out")
+    observation = split_options(options)[1]
     out.mkdir(parents=True, exist_ok=True)
     run: dict[str, Any] = {
         "algo": algo,
@@ -527,6 +548,20 @@ def train(
                 "bc runs are short and are not resumed; their length is the recipe's "
                 "demo_episodes and dagger_rounds, not --timesteps"
             )
+        sees = observation.get("obs_mode", "state") != "state"
+        if sees != ("student" in recipe):
+            raise ConfigError(
+                "a bc run on image observations needs a student recipe (a 'student' entry, "
+                "e.g. models/recipes/bc-pixels.yml), and a student recipe needs obs_mode "
+                f"proprio+rgb; got obs_mode {observation.get('obs_mode', 'state')!r}"
+            )
+        if sees:
+            from .student import train_student
+
+            return train_student(
+                run, recipe, config, observation, out, n_envs, num_threads, eval_episodes, say,
+                on_evaluation, show_progress=progress, fit_threads=run["update_threads"],
+            )  # fmt: skip
         return _train_bc(
             run, recipe, config, out, n_envs, num_threads, eval_episodes, say, on_evaluation,
             show_progress=progress, fit_threads=run["update_threads"],
@@ -580,6 +615,7 @@ def train(
         float(state["wall_time_s"]),
         say,
         on_evaluation,
+        observation,
     )
     (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
     run["final"] = final

@@ -1,0 +1,202 @@
+"""Policies that see (panda_rapier.student): the encoder, the DAgger loop with a privileged
+teacher improving a student on a tiny budget, ``panda-rapier train --algo bc`` on images, and
+the student's model file read by data (evaluable without trusting the file)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+import torch as th
+from stable_baselines3 import PPO
+
+from panda_rapier import cli
+from panda_rapier.errors import ConfigError, InvalidArgumentError
+from panda_rapier.inference import resolve_policy
+from panda_rapier.registration import env_config
+from panda_rapier.sb3 import make_vec_env
+from panda_rapier.student import (
+    PixelEncoder,
+    SpatialSoftArgmax,
+    collect_student,
+    distil,
+    load_student,
+    policy_kwargs,
+    student_architecture,
+)
+from panda_rapier.training import train
+
+ENV_ID = "panda_rapier/PickAndPlace-v0"
+#: A small image keeps the tests quick; the shipped recipe's size is in the recipe.
+OBSERVATION = {"obs_mode": "proprio+rgb", "image_size": 48}
+REPO = Path(__file__).resolve().parents[2]
+TINY = {
+    "env_kwargs": OBSERVATION,
+    "student": {"channels": [8, 16, 8], "strides": [2, 2, 1], "net_arch": {"pi": [64], "vf": [64]}},
+    "n_envs": 8,
+    "demo_episodes": 8,
+    "dagger_rounds": 1,
+    "dagger_episodes": 8,
+    "first_updates": 20,
+    "round_updates": 10,
+    "final_updates": 10,
+    "batch_size": 32,
+}
+
+
+def _student(arch: dict[str, Any]) -> PPO:
+    env = make_vec_env(ENV_ID, n_envs=1, **OBSERVATION)
+    return PPO("MultiInputPolicy", env, policy_kwargs=policy_kwargs(arch), seed=0, device="cpu")
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A student trained by ``panda-rapier train --algo bc`` on a budget of seconds."""
+    out = tmp_path_factory.mktemp("student") / "run"
+    recipe = tmp_path_factory.mktemp("recipe") / "bc-pixels.yml"
+    recipe.write_text(json.dumps({ENV_ID: TINY}))  # JSON is YAML
+    code = cli.main(
+        ["train", "--algo", "bc", "--env-id", ENV_ID, "--conf", str(recipe), "--out", str(out),
+         "--eval-episodes", "4", "--quiet"]
+    )  # fmt: skip
+    assert code == 0
+    return out
+
+
+def test_spatial_soft_argmax_finds_a_peak() -> None:
+    layer = SpatialSoftArgmax(5, 9)
+    maps = th.full((1, 2, 5, 9), -50.0)
+    maps[0, 0, 0, 8] = 50.0  # top right
+    maps[0, 1, 4, 0] = 50.0  # bottom left
+    keypoints = layer(maps)[0].detach().numpy()
+    # x of both channels, then y of both
+    np.testing.assert_allclose(keypoints, [1.0, -1.0, -1.0, 1.0], atol=1e-4)
+
+
+def test_the_encoder_sees_images_and_scales_the_rest() -> None:
+    model = _student(student_architecture(TINY["student"]))
+    encoder = model.policy.features_extractor
+    assert isinstance(encoder, PixelEncoder)
+    assert encoder.image_keys == ["rgb"]
+    assert encoder.vector_keys == ["desired_goal", "proprioception"]
+    assert encoder.features_dim == 2 * 8 + 3 + 25
+    with pytest.raises(TypeError, match="image"):
+        PixelEncoder(make_vec_env(ENV_ID, n_envs=1).observation_space)
+
+
+@pytest.mark.parametrize(
+    "spec",
+    [
+        [1, 2],
+        {"channels": [8], "strides": [1, 2]},
+        {"channels": [0], "strides": [1]},
+        {"channels": [8], "strides": [True]},
+        {"net_arch": {"pi": [64]}},
+        {"depth": 3},
+    ],
+)
+def test_bad_student_architectures_are_config_errors(spec: Any) -> None:
+    with pytest.raises(ConfigError):
+        student_architecture(spec)
+
+
+def test_the_student_observation_holds_the_expert_s_labels() -> None:
+    config = env_config(ENV_ID)
+    data, stats = collect_student(config, OBSERVATION, 2, first_seed=7, num_envs=2)
+    assert stats.success_rate == 1.0  # the expert drove
+    assert set(data.observations) == {"desired_goal", "proprioception", "rgb"}
+    assert data.observations["rgb"].shape == (len(data), 3, 48, 48)
+    assert data.observations["rgb"].dtype == np.uint8
+    assert len(data) == 2 * config["max_episode_steps"] == len(data.actions)
+    assert data.episode_seeds == [7, 8]
+
+
+def test_dagger_improves_the_student_on_a_tiny_budget() -> None:
+    """A student distilled on 24 episodes predicts the expert's actions in states it never saw
+    far better than the best constant action does (the actions depend on where the cube is)."""
+    config = env_config(ENV_ID)
+    model = _student(student_architecture({"channels": [8, 16, 8], "strides": [2, 2, 1]}))
+    held_out, _ = collect_student(config, OBSERVATION, 8, first_seed=10_000, num_envs=8)
+    policy = model.policy
+
+    def loss() -> float:
+        obs = {k: th.as_tensor(v) for k, v in held_out.observations.items()}
+        with th.no_grad():
+            mean = policy.get_distribution(obs).distribution.mean.numpy()
+        return float(np.mean((mean - held_out.actions) ** 2))
+
+    before = loss()
+    distil(
+        model, config, OBSERVATION, demo_episodes=16, rounds=1, episodes_per_round=8,
+        first_updates=300, round_updates=150, final_updates=100, first_seed=0, batch_size=64,
+        learning_rate=1e-3, num_envs=8,
+    )  # fmt: skip
+    constant = float(np.mean((held_out.actions - held_out.actions.mean(axis=0)) ** 2))
+    after = loss()
+    assert after < 0.6 * constant < before, (before, constant, after)
+
+
+def test_train_writes_a_student_that_loads_by_data(tiny_run: Path) -> None:
+    run = json.loads((tiny_run / "run.json").read_text())
+    assert run["student"]["channels"] == [8, 16, 8]
+    assert run["env_kwargs"] == OBSERVATION
+    assert run["env_steps"] == 16 * 70
+    lines = (tiny_run / "evaluations.jsonl").read_text().splitlines()
+    assert len(lines) == 3  # after the first fit, the round and the final fit
+    student = load_student(tiny_run / "model.zip")
+    sb3 = PPO.load(tiny_run / "model.zip", device="cpu")
+    env = make_vec_env(ENV_ID, n_envs=3, seed=5, **OBSERVATION)
+    obs = env.reset()
+    for _ in range(3):
+        ours, _ = student.predict(obs, deterministic=True)
+        theirs, _ = sb3.predict(obs, deterministic=True)
+        np.testing.assert_array_equal(ours, theirs)
+        obs, *_ = env.step(ours)
+    env.close()
+
+
+def test_a_student_is_evaluated_without_trusting_its_file(
+    tiny_run: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    resolved = resolve_policy(tiny_run / "model.zip")
+    assert resolved.observation == OBSERVATION
+    assert "obs_mode" not in resolved.config
+    code = cli.main(["eval", "--policy", str(tiny_run / "model.zip"), "--episodes", "2", "--quiet"])
+    assert code == 0
+    assert "inference           torch-f32" in capsys.readouterr().out
+    with pytest.raises(InvalidArgumentError, match="torch only"):
+        resolve_policy(tiny_run / "model.zip", inference="native")
+
+
+def test_a_damaged_or_foreign_student_file_is_refused(tiny_run: Path, tmp_path: Path) -> None:
+    with pytest.raises(InvalidArgumentError, match="not a student"):
+        load_student(REPO / "models" / "bc-dagger-Reach-v0.zip")
+    # The record says one architecture, the weights are of another.
+    import zipfile
+
+    damaged = tmp_path / "model.zip"
+    with zipfile.ZipFile(tiny_run / "model.zip") as source, zipfile.ZipFile(damaged, "w") as out:
+        for item in source.namelist():
+            content = source.read(item)
+            if item == "panda_rapier_run.json":
+                run = json.loads(content)
+                run["student"]["channels"] = [8, 16, 4]
+                content = json.dumps(run).encode()
+            out.writestr(item, content)
+    with pytest.raises(InvalidArgumentError, match="unfit"):
+        load_student(damaged)
+
+
+def test_image_runs_need_a_student_recipe(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="student recipe"):
+        train("bc", ENV_ID, tmp_path / "a", env_kwargs=OBSERVATION, progress=False)
+    recipe = tmp_path / "bc.yml"
+    recipe.write_text(json.dumps({ENV_ID: {**TINY, "env_kwargs": {}}}))
+    with pytest.raises(ConfigError, match="student recipe"):
+        train("bc", ENV_ID, tmp_path / "b", conf=recipe, progress=False)
