@@ -1,4 +1,5 @@
-"""Learning curves of every shipped model, one picture per task (both action modes): success
+"""Learning curves of every shipped model, one picture per task (both action modes; the
+students that see, panda_rapier.student, in a picture of their own): success
 and placed rate on validation seeds against env steps and against wall-clock minutes, drawn
 by ``panda_rapier.reporting.plot_curves`` from the runs' evaluation logs kept in
 ``docs/training-runs/`` (each run's ``run.json`` and ``evaluations.jsonl``; a model is matched
@@ -50,12 +51,14 @@ def main() -> None:
                 f"no run in {args.runs} recorded the command of {model.name}: copy its run's "
                 "run.json and evaluations.jsonl there"
             )
-        by_task.setdefault(variant(run["env_id"])["task"], []).append(directory)
-    for task in tqdm([t for t in TASK_NAMES if t in by_task], desc="tasks", unit="task"):
-        out = args.out / f"{TASK_NAMES[task]}.png"
-        plot_curves(by_task[task], out)
+        # The students that see get their own picture: "<Task>-student.png".
+        name = TASK_NAMES[variant(run["env_id"])["task"]]
+        by_task.setdefault(f"{name}-student" if "student" in run else name, []).append(directory)
+    for name in tqdm(sorted(by_task), desc="pictures", unit="picture"):
+        out = args.out / f"{name}.png"
+        plot_curves(by_task[name], out)
         print(f"{out.relative_to(ROOT) if out.is_relative_to(ROOT) else out}: "
-              f"{', '.join(d.name for d in by_task[task])}")  # fmt: skip
+              f"{', '.join(d.name for d in by_task[name])}")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -19,6 +19,7 @@ fn renderer(width: u32, height: u32) -> Renderer {
         height,
         camera: CameraConfig::default(),
         show_goal: true,
+        randomization: None,
     })
     .unwrap()
 }
@@ -159,6 +160,7 @@ fn unusual_cameras_draw_without_panicking() {
             height: 48,
             camera,
             show_goal: true,
+            randomization: None,
         })
         .unwrap();
         assert_eq!(r.render(&env).rgb().len(), 64 * 48 * 3);

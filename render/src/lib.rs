@@ -27,5 +27,5 @@ mod sensor;
 
 pub use camera::{Camera, CameraConfig};
 pub use raster::Frame;
-pub use scene::{RenderConfig, Renderer, MAX_SIZE};
+pub use scene::{RenderConfig, Renderer, VisualRandomization, MAX_SIZE};
 pub use sensor::{Cameras, ObservationCamera};

@@ -55,6 +55,11 @@ impl Frame {
         &self.rgb
     }
 
+    /// The RGB bytes, to change in place.
+    pub fn rgb_mut(&mut self) -> &mut [u8] {
+        &mut self.rgb
+    }
+
     /// The colour of pixel (`x`, `y`).
     pub fn pixel(&self, x: u32, y: u32) -> [u8; 3] {
         let i = (y as usize * self.width as usize + x as usize) * 3;

@@ -114,6 +114,7 @@ mod tests {
                 ..Default::default()
             },
             show_goal: false,
+            randomization: None,
         };
         Cameras::new(vec![
             ObservationCamera {

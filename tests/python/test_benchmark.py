@@ -1,6 +1,7 @@
 """The benchmark (models/README.md, models/evaluations.json, the README's short table): every
 shipped model and every baseline row reproduces its recorded evaluation, and the tables show
-what was recorded. Needs no torch: models act through the native network."""
+what was recorded. Needs no torch for the state policies (they act through the native
+network); the students that see act through torch."""
 
 from __future__ import annotations
 
@@ -34,15 +35,22 @@ def test_shipped_model_reproduces_its_recorded_evaluation(name: str) -> None:
     must repeat exactly; elsewhere both rates must not fall significantly below the recorded
     ones (check_reproduction). The README row is the recorded evaluation's."""
     from panda_rapier.evaluation import check_reproduction
-    from panda_rapier.inference import NATIVE, PolicyNetwork
+    from panda_rapier.inference import NATIVE, TORCH, PolicyNetwork, resolve_policy
 
     recorded = json.loads((MODELS / "evaluations.json").read_text())[name]
     run = read_run_info(MODELS / name)
     assert run is not None
-    config = env_config(run["env_id"], **run["env_kwargs"])
-    policy = PolicyNetwork.from_zip(MODELS / name)
-    report = evaluate(policy, config, REPRODUCTION_EPISODES, num_envs=32, first_seed=0)
-    assert report.inference == recorded["inference"] == NATIVE
+    if isinstance(run.get("student"), dict):
+        # A policy that sees runs on torch (its outcome fields include the CPU's kernels).
+        resolved = resolve_policy(MODELS / name)
+        report = evaluate(resolved.policy, resolved.config, REPRODUCTION_EPISODES,
+                          num_envs=32, first_seed=0, **resolved.observation)  # fmt: skip
+        assert report.inference == recorded["inference"] == TORCH
+    else:
+        config = env_config(run["env_id"], **run["env_kwargs"])
+        policy = PolicyNetwork.from_zip(MODELS / name)
+        report = evaluate(policy, config, REPRODUCTION_EPISODES, num_envs=32, first_seed=0)
+        assert report.inference == recorded["inference"] == NATIVE
     check = check_reproduction(recorded, report)
     print(name, check)
     assert check.passed, check
@@ -121,3 +129,21 @@ def test_readme_headline_table_shows_the_recorded_evaluations() -> None:
                 assert cell.startswith(f"{success:.3f}"), (name, cell)
             else:
                 assert cell == "-", (name, cell)
+
+
+def test_readme_student_figures_are_the_recorded_evaluation() -> None:
+    """The README's sentence on each shipped student shows its recorded success and placed
+    rates and its training minutes."""
+    recorded_all = json.loads((MODELS / "evaluations.json").read_text())
+    readme = " ".join((MODELS.parent / "README.md").read_text().split())
+    students = [p for p in sorted(MODELS.glob("*.zip")) if "student" in (read_run_info(p) or {})]
+    assert students, "no student in models/"
+    for model in students:
+        recorded = recorded_all[model.name]
+        run = read_run_info(model)
+        assert run is not None
+        wanted = (
+            f"in {run['wall_time_s'] / 60:.1f} minutes: `models/{model.name}`, "
+            f"{recorded['success_rate']:.3f} success and {recorded['placed_rate']:.3f} placed"
+        )
+        assert wanted in readme, wanted

@@ -335,3 +335,48 @@ def test_the_pixel_examples_run(tmp_path: Path) -> None:
     )  # fmt: skip
     assert "from 48px images" in result.stdout
     assert (tmp_path / "run" / "model.zip").is_file()
+
+
+def test_visual_randomization_is_seeded_by_the_episode() -> None:
+    """Randomised pictures differ from the plain ones (nothing else does), repeat for the same
+    episode whatever the batch and threads, and change with the randomisation's seed."""
+    options = {"obs_mode": "proprio+rgb", "image_size": 32}
+    plain = gym.make(ENV_ID, **options)
+    plain_obs, _ = plain.reset(seed=9)
+    single = gym.make(ENV_ID, **options, visual_randomization=True)
+    single_obs, _ = single.reset(seed=9)
+    assert (single_obs["rgb"] != plain_obs["rgb"]).any()
+    np.testing.assert_array_equal(single_obs["proprioception"], plain_obs["proprioception"])
+    config = env_config(ENV_ID)
+    actions = np.random.default_rng(1).uniform(-1, 1, (3, 4, 4)).astype(np.float32)
+    rows = {}
+    for num_envs, threads in [(4, 1), (2, 2)]:
+        envs = PandaVectorEnv(
+            num_envs, num_threads=threads, **options, visual_randomization=True, **config
+        )
+        obs, _ = envs.reset(seed=9)
+        seen = [obs["rgb"][:2].copy()]
+        for step in actions:
+            obs, *_ = envs.step(step[:num_envs])
+            seen.append(obs["rgb"][:2].copy())
+        rows[num_envs] = np.stack(seen)
+        envs.close()
+    np.testing.assert_array_equal(rows[4], rows[2])
+    np.testing.assert_array_equal(rows[4][0, 0], single_obs["rgb"])
+    # Another seed, another look; no randomisation at all, the plain picture.
+    other = gym.make(ENV_ID, **options, visual_randomization={"seed": 1})
+    assert (other.reset(seed=9)[0]["rgb"] != single_obs["rgb"]).any()
+    off = {k: 0 for k in panda_rapier.pixels.VISUAL_RANDOMIZATION}
+    zero = gym.make(ENV_ID, **options, visual_randomization=off)
+    np.testing.assert_array_equal(zero.reset(seed=9)[0]["rgb"], plain_obs["rgb"])
+
+
+@pytest.mark.parametrize(
+    "value",
+    [{"colors": 1.0}, {"noise": 100}, {"hue": 0.2}, "yes", {"camera_fov": -1.0}],
+)
+def test_bad_visual_randomization_is_a_config_error(value: Any) -> None:
+    with pytest.raises(ConfigError):
+        gym.make(ENV_ID, obs_mode="rgb", visual_randomization=value)
+    with pytest.raises(ConfigError, match="visual_randomization"):
+        gym.make(ENV_ID, visual_randomization=True)  # state observations have no pictures

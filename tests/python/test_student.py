@@ -200,3 +200,17 @@ def test_image_runs_need_a_student_recipe(tmp_path: Path) -> None:
     recipe.write_text(json.dumps({ENV_ID: {**TINY, "env_kwargs": {}}}))
     with pytest.raises(ConfigError, match="student recipe"):
         train("bc", ENV_ID, tmp_path / "b", conf=recipe, progress=False)
+
+
+def test_the_student_view_example_draws_both_rows(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    out = tmp_path / "view.png"
+    command = [sys.executable, "student_view.py", "--policy",
+               str(REPO / "models" / "student-PickAndPlace-v0.zip"), "--out", str(out),
+               "--steps", "0", "3", "--size", "84"]  # fmt: skip
+    done = subprocess.run(command, cwd=REPO / "examples", capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "172x172 written" in done.stdout  # two 84-pixel columns and two rows, 4-pixel gaps
+    assert out.read_bytes().startswith(b"\x89PNG")

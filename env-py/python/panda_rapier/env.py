@@ -79,7 +79,9 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     object only in pictures, or use ``"proprio+rgb"``: the images, the robot's own state as
     ``proprioception`` (joint positions and velocities, TCP position and velocity, gripper
     width) and ``desired_goal``, nothing of the object's state). Images are bit-identical for
-    the same state. SB3's
+    the same state. ``visual_randomization=True`` (or a dict of ranges,
+    :data:`panda_rapier.pixels.VISUAL_RANDOMIZATION`) jitters the cameras, light and colours
+    per episode and adds pixel noise per frame, seeded by the episode. SB3's
     ``MultiInputPolicy`` takes them as they are (it transposes images for its CNN).
 
     ## Action Space
@@ -157,6 +159,7 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
         obs_mode: str = "state",
         image_size: int | tuple[int, int] = DEFAULT_IMAGE_SIZE,
         cameras: dict[str, dict[str, Any]] | None = None,
+        visual_randomization: bool | dict[str, Any] | None = None,
         **config: Any,
     ) -> None:
         EzPickle.__init__(
@@ -168,13 +171,16 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
             obs_mode=obs_mode,
             image_size=image_size,
             cameras=cameras,
+            visual_randomization=visual_randomization,
             **config,
         )
         self._frames: FrameSource | None = None
         # gym.make keeps time with a TimeLimit wrapper; the env counts only when asked to.
         config.setdefault("max_episode_steps", None)
         self._bind_native(_native.PandaEnv(_common.config_json(config), 0))
-        self._obs = observation_spec(self._schema, obs_mode, image_size, cameras)
+        self._obs = observation_spec(
+            self._schema, obs_mode, image_size, cameras, visual_randomization
+        )
         self._cameras = _native.Cameras(self._obs.cameras_json) if self._obs.has_images else None
         # gymnasium types a Dict space's elements as dict[str, Space], not the observations.
         self.observation_space = cast("gym.spaces.Space[dict[str, np.ndarray]]", self._obs.space())

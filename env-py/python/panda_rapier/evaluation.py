@@ -274,6 +274,7 @@ def evaluate(
     obs_mode: str = "state",
     image_size: int | tuple[int, int] = DEFAULT_IMAGE_SIZE,
     cameras: Mapping[str, Mapping[str, Any]] | None = None,
+    visual_randomization: bool | Mapping[str, Any] | None = None,
 ) -> EvaluationReport:
     """Runs ``episodes`` seeded episodes of the environment ``config`` (its
     ``max_episode_steps`` must be set) with ``policy`` (a :class:`ScriptedPolicy`, anything
@@ -283,7 +284,8 @@ def evaluate(
     ``progress`` is called with the number of finished episodes after every step that ends
     some. ``recorder`` (a :class:`~panda_rapier.video.VideoRecorder`) gets every frame of the
     episodes environment 0 runs: the first state and one frame per step. ``obs_mode``,
-    ``image_size`` and ``cameras`` (as for :class:`~panda_rapier.PandaEnv`) give an SB3-style
+    ``image_size``, ``cameras`` and ``visual_randomization`` (as for
+    :class:`~panda_rapier.PandaEnv`) give an SB3-style
     policy the image observations it was trained on."""
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
         raise InvalidArgumentError(f"episodes must be an int >= 1, got {episodes!r}")
@@ -300,7 +302,9 @@ def evaluate(
     if config.get("max_episode_steps", 0) is None:
         raise ConfigError("evaluation needs a time limit: max_episode_steps must not be None")
     config_json = _common.config_json(config)
-    spec = observation_spec(_common.Schema.of(config_json), obs_mode, image_size, cameras)
+    spec = observation_spec(
+        _common.Schema.of(config_json), obs_mode, image_size, cameras, visual_randomization
+    )
     evaluation = _native.Evaluation(
         config_json, episodes, min(num_envs, episodes), num_threads, seed
     )

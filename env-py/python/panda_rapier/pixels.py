@@ -35,7 +35,33 @@ RESERVED_KEYS = (*_common.DICT_KEYS, PROPRIOCEPTION_KEY)
 
 #: The options that choose what an observation holds, as every environment class takes them;
 #: the others configure the simulation (:func:`split_options`).
-OBSERVATION_OPTIONS = ("obs_mode", "image_size", "cameras")
+OBSERVATION_OPTIONS = ("obs_mode", "image_size", "cameras", "visual_randomization")
+
+#: The ranges of ``visual_randomization=True`` (half-widths of uniform draws; the renderer's
+#: ``VisualRandomization``). Each episode's camera pose, light and colours are drawn from the
+#: episode's goal and ``seed``, each frame's noise from that and the step: the same episode
+#: looks the same whatever the batch or threads.
+#:
+#: - ``camera_position``: the eye and the point looked at each move up to this along every
+#:   axis (m; at most 0.2)
+#: - ``camera_fov``: the field of view changes up to this (degrees; at most 20)
+#: - ``light_direction``: each component of the direction towards the light, (0.4, 0.3, 1.0)
+#:   before normalising, moves up to this (at most 0.9)
+#: - ``light_intensity``: ambient and sun light scaled within ``1 +- x`` (below 1)
+#: - ``colors``: each colour channel of each object, the floor's tiles and the platform scaled
+#:   within ``1 +- x`` (below 1)
+#: - ``noise``: every channel of every pixel moves by a uniform integer in ``[-noise, noise]``
+#:   each frame (at most 64)
+#: - ``seed``: the seed of the draws (another seed, other looks)
+VISUAL_RANDOMIZATION: dict[str, Any] = {
+    "camera_position": 0.02,
+    "camera_fov": 2.0,
+    "light_direction": 0.3,
+    "light_intensity": 0.2,
+    "colors": 0.15,
+    "noise": 6,
+    "seed": 0,
+}
 
 #: Default image size (pixels, square), a common size for pixel-based RL (Atari's 84x84).
 DEFAULT_IMAGE_SIZE = 84
@@ -158,19 +184,23 @@ def observation_spec(
     obs_mode: Any = "state",
     image_size: Any = DEFAULT_IMAGE_SIZE,
     cameras: Any = None,
+    visual_randomization: Any = None,
 ) -> ObservationSpec:
     """The observation layout for ``obs_mode`` with images of ``image_size`` from ``cameras``
     (a dict from observation key to camera options: ``target``, ``distance``, ``azimuth``,
     ``elevation`` or ``eye``, ``fov``, as for rendering, and ``show_goal``, default False: the
     goal marker is left out of observation images so that a relabelled goal never contradicts
-    the picture). Bad values raise :class:`~panda_rapier.ConfigError`."""
+    the picture). ``visual_randomization`` (``True`` for :data:`VISUAL_RANDOMIZATION`'s ranges,
+    or a dict of some of them; ``None`` or ``False``: off) randomises every camera's pictures,
+    seeded per episode (see :data:`VISUAL_RANDOMIZATION`). Bad values raise
+    :class:`~panda_rapier.ConfigError`."""
     if obs_mode not in OBS_MODES:
         raise ConfigError(f"obs_mode must be one of {OBS_MODES}, got {obs_mode!r}")
     if obs_mode == "state":
-        if cameras is not None:
+        if cameras is not None or visual_randomization not in (None, False):
             raise ConfigError(
-                "cameras sets the observation cameras of obs_mode 'rgb' or "
-                "'state+rgb'; for render() frames, use camera"
+                "cameras and visual_randomization set the observation cameras of the image "
+                "obs_modes; for render() frames, use camera"
             )
         return ObservationSpec(mode="state", schema=schema)
     height, width = _image_size(image_size)
@@ -181,6 +211,7 @@ def observation_spec(
             f"cameras must be a non-empty dict from observation key to camera options, got "
             f"{cameras!r}"
         )
+    randomization = _randomization(visual_randomization)
     entries = []
     for key, options in cameras.items():
         if not isinstance(key, str) or key in RESERVED_KEYS or not key:
@@ -194,6 +225,8 @@ def observation_spec(
         if not isinstance(show_goal, bool):
             raise ConfigError(f"cameras[{key!r}]['show_goal'] must be a bool, got {show_goal!r}")
         render = {"width": width, "height": height, "camera": camera, "show_goal": show_goal}
+        if randomization is not None:
+            render["randomization"] = randomization
         entries.append({"key": key, "render": render})
     try:
         cameras_json = json.dumps(
@@ -211,6 +244,26 @@ def observation_spec(
         image_shapes=tuple(tuple(shape) for shape in native.shapes),  # type: ignore[misc]
         cameras_json=cameras_json,
     )
+
+
+def _randomization(value: Any) -> dict[str, Any] | None:
+    """The renderer's randomisation entry for ``visual_randomization`` (checked by the
+    renderer, which names a bad field)."""
+    if value is None or value is False:
+        return None
+    if value is True:
+        return dict(VISUAL_RANDOMIZATION)
+    if not isinstance(value, Mapping):
+        raise ConfigError(
+            f"visual_randomization must be True, False, None or a dict of ranges, got {value!r}"
+        )
+    unknown = set(value) - set(VISUAL_RANDOMIZATION)
+    if unknown:
+        raise ConfigError(
+            f"visual_randomization: unknown entries {sorted(unknown)}; known: "
+            f"{list(VISUAL_RANDOMIZATION)}"
+        )
+    return {**VISUAL_RANDOMIZATION, **dict(value)}
 
 
 def split_options(options: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:

@@ -99,6 +99,7 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
         obs_mode: str = "state",
         image_size: int | tuple[int, int] = DEFAULT_IMAGE_SIZE,
         cameras: dict[str, dict[str, Any]] | None = None,
+        visual_randomization: bool | dict[str, Any] | None = None,
         **config: Any,
     ) -> None:
         self._frames: FrameSource | None = None
@@ -114,7 +115,9 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
                 "same_step",
             )
         )
-        self._obs = observation_spec(self._schema, obs_mode, image_size, cameras)
+        self._obs = observation_spec(
+            self._schema, obs_mode, image_size, cameras, visual_randomization
+        )
         if self._obs.has_images:
             self._native.set_cameras(self._obs.cameras_json)
         self.spec = spec
@@ -269,12 +272,13 @@ def make_vec_env(
     obs_mode: str = "state",
     image_size: int | tuple[int, int] = DEFAULT_IMAGE_SIZE,
     cameras: dict[str, dict[str, Any]] | None = None,
+    visual_randomization: bool | dict[str, Any] | None = None,
     **config: Any,
 ) -> PandaVecEnv:
     """A :class:`PandaVecEnv` for a registered id (``panda_rapier.ENV_IDS``), with the
     id's options (and its time limit, 70 steps) overridden by ``config``; ``render_mode``,
-    ``width``, ``height``, ``camera``, ``render_envs``, ``obs_mode``, ``image_size`` and
-    ``cameras`` pass through to it.
+    ``width``, ``height``, ``camera``, ``render_envs``, ``obs_mode``, ``image_size``,
+    ``cameras`` and ``visual_randomization`` pass through to it.
 
     With ``seed``, environment ``i``'s first episode is seeded with ``seed + i`` (as
     stable-baselines3's own ``make_vec_env``); the same seed gives the same rollouts.
@@ -292,6 +296,7 @@ def make_vec_env(
         obs_mode=obs_mode,
         image_size=image_size,
         cameras=cameras,
+        visual_randomization=visual_randomization,
         **options,
     )
     if seed is not None:

@@ -80,6 +80,7 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
         obs_mode: str = "state",
         image_size: int | tuple[int, int] = DEFAULT_IMAGE_SIZE,
         cameras: dict[str, dict[str, Any]] | None = None,
+        visual_randomization: bool | dict[str, Any] | None = None,
         **config: Any,
     ) -> None:
         self._frames: FrameSource | None = None
@@ -109,7 +110,9 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
             "render_modes": list(RENDER_MODES),
             "render_fps": round(1.0 / self._native.dt),
         }
-        self._obs = observation_spec(self._schema, obs_mode, image_size, cameras)
+        self._obs = observation_spec(
+            self._schema, obs_mode, image_size, cameras, visual_randomization
+        )
         if self._obs.has_images:
             self._native.set_cameras(self._obs.cameras_json)
         self.single_observation_space = self._obs.space()
