@@ -20,12 +20,14 @@
 //! [`Simulation::visual_primitives`]: panda_rapier_core::Simulation::visual_primitives
 
 pub mod camera;
+mod look;
 pub mod mesh;
 pub mod raster;
 mod scene;
 mod sensor;
 
 pub use camera::{Camera, CameraConfig};
+pub use look::VisualRandomization;
 pub use raster::Frame;
-pub use scene::{RenderConfig, Renderer, VisualRandomization, MAX_SIZE};
+pub use scene::{RenderConfig, Renderer, MAX_SIZE};
 pub use sensor::{Cameras, ObservationCamera};

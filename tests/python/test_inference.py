@@ -48,7 +48,7 @@ from panda_rapier.model_file import _load_weights, _rebuild_tensor
 from panda_rapier.normalization import NormalizedFlatten, fit_normalizers
 from panda_rapier.registration import env_config
 from panda_rapier.sb3 import make_vec_env
-from panda_rapier.student import is_student
+from panda_rapier.student_model import is_student
 from panda_rapier.training import read_run_info
 
 th.set_num_threads(1)

@@ -21,11 +21,10 @@ from panda_rapier.errors import ConfigError, InvalidArgumentError
 from panda_rapier.inference import resolve_policy
 from panda_rapier.registration import env_config
 from panda_rapier.sb3 import make_vec_env
-from panda_rapier.student import (
+from panda_rapier.student import collect_student, distil
+from panda_rapier.student_model import (
     PixelEncoder,
     SpatialSoftArgmax,
-    collect_student,
-    distil,
     load_student,
     policy_kwargs,
     student_architecture,

@@ -116,6 +116,16 @@ def _non_finite(value: Any, path: str) -> str | None:
     return None
 
 
+#: Bound of an entry standardised by a policy network's observation normaliser
+#: (:class:`~panda_rapier.normalization.NormalizedFlatten`, the students'
+#: :class:`~panda_rapier.student_model.PixelEncoder`, the native network); defined here, where
+#: no torch is needed, and read by all of them.
+CLIP = 10.0
+#: Smallest scale a normalised feature is divided by: entries that barely move in the expert's
+#: episodes (the cube's tilt) must not turn float noise into large inputs.
+MIN_SCALE = 0.01
+
+
 def config_json(config: Mapping[str, Any]) -> str:
     """Serialises keyword options for the native side (which validates them); NaN and infinite
     numbers are refused here, with the option's name, since JSON cannot carry them."""

@@ -30,7 +30,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from . import _native
+from . import _common, _native
 from .errors import InvalidArgumentError
 from .model_file import (
     UnsupportedModelError,
@@ -60,9 +60,8 @@ __all__ = [
 
 #: The inference of :class:`PolicyNetwork`: float64, fixed order, CPU-independent.
 NATIVE = "native-f64"
-#: Bound of an entry standardised by :class:`~panda_rapier.normalization.NormalizedFlatten`
-#: (defined here, where no torch is needed, and read by both).
-CLIP = 10.0
+#: Bound of a standardised observation entry (:data:`panda_rapier._common.CLIP`).
+CLIP = _common.CLIP
 #: A stable-baselines3 model's own ``predict``: torch float32, CPU-dependent kernels.
 TORCH = "torch-f32"
 
@@ -431,7 +430,7 @@ def load_policy(
         if inference == "native":
             raise UnsupportedModelError(f"{path} is a student acting on images: torch only")
         try:
-            from .student import load_student
+            from .student_model import load_student
         except ImportError as error:
             raise ImportError(
                 "evaluating a policy that sees needs torch and stable-baselines3: "

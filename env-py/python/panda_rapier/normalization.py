@@ -28,7 +28,8 @@ import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
-from .inference import CLIP
+from . import _common
+from ._common import CLIP
 from .rollouts import collect
 
 __all__ = [
@@ -38,9 +39,8 @@ __all__ = [
     "fit_normalizers",
 ]
 
-#: Smallest scale a feature is divided by: entries that barely move in the expert's episodes
-#: (the cube's tilt) must not turn float noise into large inputs.
-MIN_SCALE = 0.01
+#: Smallest scale a feature is divided by (:data:`panda_rapier._common.MIN_SCALE`).
+MIN_SCALE = _common.MIN_SCALE
 #: Episodes of the scripted expert the statistics are taken from, and the seed of the first.
 FIT_EPISODES = 64
 FIT_FIRST_SEED = 2_000_000_000

@@ -558,9 +558,11 @@ def train(
         if sees:
             from .student import train_student
 
+            recorder = _Recorder(out, config, run, eval_episodes, num_threads, 0.0, say,
+                                 on_evaluation, observation)  # fmt: skip
             return train_student(
-                run, recipe, config, observation, out, n_envs, num_threads, eval_episodes, say,
-                on_evaluation, show_progress=progress, fit_threads=run["update_threads"],
+                run, recipe, config, observation, out, n_envs, num_threads, recorder, say,
+                show_progress=progress, fit_threads=run["update_threads"],
             )  # fmt: skip
         return _train_bc(
             run, recipe, config, out, n_envs, num_threads, eval_episodes, say, on_evaluation,
