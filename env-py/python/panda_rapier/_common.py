@@ -126,6 +126,19 @@ CLIP = 10.0
 MIN_SCALE = 0.01
 
 
+def standardisation(
+    rows: Any, width: int, min_scale: float = MIN_SCALE
+) -> tuple[np.ndarray, np.ndarray]:
+    """The mean and scale (standard deviation, at least ``min_scale``) of ``rows`` of
+    ``width`` values each, as the observation normalisers store them (float32); fewer than 2
+    rows or another width is a ``ValueError``."""
+    rows = np.asarray(rows, dtype=np.float64)
+    if rows.ndim != 2 or rows.shape[1] != width or rows.shape[0] < 2:
+        raise ValueError(f"fit needs at least 2 rows of {width} values, got {rows.shape}")
+    scale = np.maximum(rows.std(axis=0), min_scale)
+    return rows.mean(axis=0).astype(np.float32), scale.astype(np.float32)
+
+
 def config_json(config: Mapping[str, Any]) -> str:
     """Serialises keyword options for the native side (which validates them); NaN and infinite
     numbers are refused here, with the option's name, since JSON cannot carry them."""

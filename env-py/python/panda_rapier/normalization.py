@@ -69,14 +69,9 @@ class NormalizedFlatten(BaseFeaturesExtractor):
     def fit(self, flat: np.ndarray, min_scale: float = MIN_SCALE) -> None:
         """Sets mean and scale (standard deviation, at least ``min_scale``) from rows of flat
         observations."""
-        flat = np.asarray(flat, dtype=np.float64)
-        if flat.ndim != 2 or flat.shape[1] != self.features_dim or flat.shape[0] < 2:
-            raise ValueError(
-                f"fit needs at least 2 rows of {self.features_dim} values, got {flat.shape}"
-            )
-        self.mean.copy_(th.as_tensor(flat.mean(axis=0), dtype=th.float32))
-        scale = np.maximum(flat.std(axis=0), min_scale)
-        self.scale.copy_(th.as_tensor(scale, dtype=th.float32))
+        mean, scale = _common.standardisation(flat, self.features_dim, min_scale)
+        self.mean.copy_(th.as_tensor(mean))
+        self.scale.copy_(th.as_tensor(scale))
 
     def forward(self, observations: Mapping[str, th.Tensor]) -> th.Tensor:
         flat = th.cat([observations[k].flatten(start_dim=1) for k in self.keys], dim=1)

@@ -25,7 +25,7 @@ import torch as th
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
 
-from ._common import CLIP, MIN_SCALE
+from ._common import CLIP, MIN_SCALE, standardisation
 from .errors import ConfigError, InvalidArgumentError
 from .pixels import split_options
 
@@ -132,14 +132,9 @@ class PixelEncoder(BaseFeaturesExtractor):
         """Sets the vector entries' mean and scale (standard deviation, at least
         ``min_scale``) from rows of them (the vector keys' values side by side, in key
         order)."""
-        vectors = np.asarray(vectors, dtype=np.float64)
-        if vectors.ndim != 2 or vectors.shape[1] != self.mean.shape[0] or len(vectors) < 2:
-            raise ValueError(
-                f"fit needs at least 2 rows of {self.mean.shape[0]} values, got {vectors.shape}"
-            )
-        self.mean.copy_(th.as_tensor(vectors.mean(axis=0), dtype=th.float32))
-        scale = np.maximum(vectors.std(axis=0), min_scale)
-        self.scale.copy_(th.as_tensor(scale, dtype=th.float32))
+        mean, scale = standardisation(vectors, int(self.mean.shape[0]), min_scale)
+        self.mean.copy_(th.as_tensor(mean))
+        self.scale.copy_(th.as_tensor(scale))
 
     def forward(self, observations: Mapping[str, th.Tensor]) -> th.Tensor:
         parts = [cnn(observations[k]) for k, cnn in zip(self.image_keys, self.cnns, strict=True)]
