@@ -33,6 +33,17 @@ class RolloutStats:
     placed_rate: float
     wall_time_s: float
 
+    @classmethod
+    def of(cls, report: Any, env_steps: int) -> RolloutStats:
+        """How the driver of an :class:`~panda_rapier.evaluation.EvaluationReport` did."""
+        return cls(
+            episodes=len(report.episodes),
+            env_steps=env_steps,
+            success_rate=report.success_rate,
+            placed_rate=report.placed_rate,
+            wall_time_s=report.wall_time_s,
+        )
+
 
 @dataclass
 class Demonstrations:
@@ -145,11 +156,4 @@ def collect(
         episode_success=[e.success for e in report.episodes],
         episode_placed=[e.placed for e in report.episodes],
     )
-    stats = RolloutStats(
-        episodes=episodes,
-        env_steps=len(demos),
-        success_rate=report.success_rate,
-        placed_rate=report.placed_rate,
-        wall_time_s=report.wall_time_s,
-    )
-    return demos, stats
+    return demos, RolloutStats.of(report, len(demos))

@@ -126,14 +126,7 @@ def collect_student(
         episode_index=np.concatenate(episode_rows),
         episode_seeds=[e.seed for e in report.episodes],
     )
-    stats = RolloutStats(
-        episodes=episodes,
-        env_steps=len(data),
-        success_rate=report.success_rate,
-        placed_rate=report.placed_rate,
-        wall_time_s=report.wall_time_s,
-    )
-    return data, stats
+    return data, RolloutStats.of(report, len(data))
 
 
 def _encoder(policy: nn.Module) -> PixelEncoder:
