@@ -4,6 +4,9 @@ use nalgebra::Vector3;
 use panda_rapier_core::{Error, Result};
 use serde::{Deserialize, Serialize};
 
+use crate::mesh::Triangle;
+use crate::raster::ScreenVertex;
+
 /// Camera options, as passed from Python (`camera={...}`) or JSON. Either an orbit around
 /// `target` (`distance`, `azimuth`, `elevation`, like PyBullet's debug camera) or an explicit
 /// `eye`; unset fields take the defaults below.
@@ -193,9 +196,77 @@ impl Camera {
     }
 }
 
+/// From the camera's view space to pixels: the focal length and the picture's centre.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Projection {
+    pub(crate) focal_px: f64,
+    pub(crate) cx: f64,
+    pub(crate) cy: f64,
+}
+
+impl Projection {
+    pub(crate) fn screen(&self, v: &Vector3<f64>) -> ScreenVertex {
+        let f = self.focal_px;
+        ScreenVertex {
+            x: (self.cx + f * v.x / v.z) as f32,
+            y: (self.cy - f * v.y / v.z) as f32,
+            inv_depth: (1.0 / v.z) as f32,
+        }
+    }
+}
+
+/// Clips a view-space triangle to the part in front of the near plane: none, one or two
+/// triangles.
+pub(crate) fn clip_near(t: &Triangle) -> [Option<Triangle>; 2] {
+    let inside = t.map(|v| v.z >= NEAR);
+    match inside.iter().filter(|&&i| i).count() {
+        3 => [Some(*t), None],
+        0 => [None, None],
+        _ => {
+            let mut poly: Vec<Vector3<f64>> = Vec::with_capacity(4);
+            for i in 0..3 {
+                let (a, b) = (t[i], t[(i + 1) % 3]);
+                if inside[i] {
+                    poly.push(a);
+                }
+                if inside[i] != inside[(i + 1) % 3] {
+                    let s = (NEAR - a.z) / (b.z - a.z);
+                    let mut p = a + (b - a) * s;
+                    p.z = NEAR;
+                    poly.push(p);
+                }
+            }
+            match poly.len() {
+                3 => [Some([poly[0], poly[1], poly[2]]), None],
+                4 => [
+                    Some([poly[0], poly[1], poly[2]]),
+                    Some([poly[0], poly[2], poly[3]]),
+                ],
+                _ => [None, None],
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn near_clipping_keeps_the_front_part() {
+        let t = [
+            Vector3::new(0.0, 0.0, -1.0),
+            Vector3::new(1.0, 0.0, 1.0),
+            Vector3::new(-1.0, 0.0, 1.0),
+        ];
+        let [a, b] = clip_near(&t);
+        let (a, b) = (a.unwrap(), b.unwrap());
+        for v in a.iter().chain(&b) {
+            assert!(v.z >= NEAR - 1e-12);
+        }
+        let behind = t.map(|v| Vector3::new(v.x, v.y, -2.0));
+        assert_eq!(clip_near(&behind), [None, None]);
+    }
 
     #[test]
     fn target_projects_to_the_centre_and_up_is_up() {

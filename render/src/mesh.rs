@@ -161,6 +161,40 @@ fn round(radius: f64, half_height: f64, detail: Detail, out: &mut Vec<Triangle>)
     }
 }
 
+/// Triangles as indices into a list of distinct vertices, so that a vertex several
+/// triangles share is transformed once per frame. Each triangle's corners are bit for bit
+/// the ones it was built from (vertices are merged only when their coordinates are equal).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct IndexedMesh {
+    /// The distinct vertices (m).
+    pub vertices: Vec<Vector3<f64>>,
+    /// Each triangle's corners, by index into `vertices`, in the order they were given.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl IndexedMesh {
+    /// The mesh of `triangles`.
+    pub fn from_triangles(triangles: &[Triangle]) -> Self {
+        let mut index: std::collections::HashMap<[u64; 3], u32> = Default::default();
+        let mut mesh = Self::default();
+        for t in triangles {
+            let corners = t.map(|v| {
+                *index.entry(v.map(f64::to_bits).into()).or_insert_with(|| {
+                    mesh.vertices.push(v);
+                    (mesh.vertices.len() - 1) as u32
+                })
+            });
+            mesh.triangles.push(corners);
+        }
+        mesh
+    }
+
+    /// Triangle `i`'s corners from `vertices` (this mesh's, or their images under a map).
+    pub fn corners<T: Copy>(&self, i: usize, vertices: &[T]) -> [T; 3] {
+        self.triangles[i].map(|k| vertices[k as usize])
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -194,6 +228,35 @@ mod tests {
             signed_volume > inside,
             "volume {signed_volume} at {detail:?}"
         );
+    }
+
+    #[test]
+    fn an_indexed_mesh_gives_back_every_corner_bit_for_bit() {
+        for shape in [
+            VisualShape::Box {
+                half_extents: Vector3::new(0.1, 0.2, 0.3),
+            },
+            VisualShape::Sphere { radius: 0.7 },
+            VisualShape::Capsule {
+                half_height: 0.3,
+                radius: 0.05,
+            },
+        ] {
+            for detail in [Detail::FULL, Detail::COARSE] {
+                let mut triangles = Vec::new();
+                tessellate_with(&shape, detail, &mut triangles);
+                let mesh = IndexedMesh::from_triangles(&triangles);
+                assert_eq!(mesh.triangles.len(), triangles.len());
+                for (i, t) in triangles.iter().enumerate() {
+                    let corners = mesh.corners(i, &mesh.vertices);
+                    for (a, b) in corners.iter().zip(t) {
+                        assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits));
+                    }
+                }
+                // Shared corners are stored once.
+                assert!(2 * mesh.vertices.len() < triangles.len() * 3, "{shape:?}");
+            }
+        }
     }
 
     #[test]

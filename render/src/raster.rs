@@ -83,6 +83,14 @@ impl Frame {
         self.shadow.fill(false);
     }
 
+    /// Makes this frame a copy of `other` (of the same size), reusing its buffers.
+    pub fn copy_from(&mut self, other: &Frame) {
+        debug_assert_eq!((self.width, self.height), (other.width, other.height));
+        self.rgb.copy_from_slice(&other.rgb);
+        self.inv_depth.copy_from_slice(&other.inv_depth);
+        self.shadow.copy_from_slice(&other.shadow);
+    }
+
     /// Draws a triangle in `color` where it is closer than what is there.
     pub fn fill_triangle(&mut self, v: &[ScreenVertex; 3], color: [u8; 3]) {
         let width = self.width as usize;
@@ -122,6 +130,21 @@ impl Frame {
     }
 }
 
+/// `v.ceil().max(0.0) as usize` without the call to `ceilf` (targets without SSE4.1 have no
+/// instruction for it): the same value for every `v` that is not NaN. (For `v >= 0`,
+/// `v as usize` is `v.floor() as usize`, which the callers use for the last pixel.)
+fn ceil_to_index(v: f32) -> usize {
+    if v <= 0.0 {
+        return 0;
+    }
+    let t = v as usize;
+    if (t as f32) < v {
+        t + 1
+    } else {
+        t
+    }
+}
+
 /// Calls `f(x, y, inv_depth)` for every pixel whose centre lies inside the triangle (either
 /// winding), clipped to the `width` x `height` picture.
 fn rasterize(width: u32, height: u32, v: &[ScreenVertex; 3], mut f: impl FnMut(usize, usize, f32)) {
@@ -145,10 +168,10 @@ fn rasterize(width: u32, height: u32, v: &[ScreenVertex; 3], mut f: impl FnMut(u
     if max_x < 0.0 || max_y < 0.0 || min_x > (width - 1) as f32 || min_y > (height - 1) as f32 {
         return;
     }
-    let x0 = min_x.ceil().max(0.0) as usize;
-    let x1 = (max_x.floor() as usize).min(width as usize - 1);
-    let y0 = min_y.ceil().max(0.0) as usize;
-    let y1 = (max_y.floor() as usize).min(height as usize - 1);
+    let x0 = ceil_to_index(min_x);
+    let x1 = (max_x as usize).min(width as usize - 1);
+    let y0 = ceil_to_index(min_y);
+    let y1 = (max_y as usize).min(height as usize - 1);
     let inv_area = 1.0 / area;
     // Barycentric weights of a, b, c are the edges opposite them over the area; both step
     // linearly along a row.
@@ -280,6 +303,31 @@ mod tests {
             [9, 9, 9],
         );
         assert_eq!(covered(&frame, [9, 9, 9]).len(), 16);
+    }
+
+    #[test]
+    fn ceil_to_index_is_ceil_clamped_at_zero() {
+        for v in [
+            -1e30f32,
+            -3.5,
+            -1.0,
+            -0.5,
+            -0.0,
+            0.0,
+            1e-7,
+            0.5,
+            1.0,
+            1.0001,
+            2.5,
+            83.0,
+            83.49,
+            1e6,
+            3e9,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ] {
+            assert_eq!(ceil_to_index(v), v.ceil().max(0.0) as usize, "{v}");
+        }
     }
 
     #[test]

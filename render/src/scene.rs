@@ -7,9 +7,9 @@ use panda_rapier_core::{
 };
 use serde::{Deserialize, Serialize};
 
-use crate::camera::{Camera, CameraConfig, NEAR};
+use crate::camera::{clip_near, Camera, CameraConfig, Projection, NEAR};
 use crate::look::{episode_key, Look, VisualRandomization};
-use crate::mesh::{tessellate_with, Detail, Triangle};
+use crate::mesh::{tessellate_with, Detail, IndexedMesh, Triangle};
 use crate::raster::{Frame, ScreenVertex};
 
 /// Largest width or height accepted (pixels).
@@ -121,8 +121,14 @@ pub struct Renderer {
     focal_px: f64,
     /// Each primitive's shape and its triangles (in the shape's frame), by primitive index:
     /// shapes do not change between frames, so they are tessellated once.
-    meshes: Vec<(VisualShape, Vec<Triangle>)>,
-    casters: Vec<Triangle>,
+    meshes: Vec<(VisualShape, IndexedMesh)>,
+    /// The light-facing triangles of this frame's shadow casters, on their world vertices.
+    casters: IndexedMesh,
+    /// A primitive's (or the casters') vertices in the world, seen by the camera and on the
+    /// screen: each computed once per vertex (buffers kept between frames).
+    world: Vec<Vector3<f64>>,
+    view: Vec<Vector3<f64>>,
+    screen: Vec<ScreenVertex>,
     /// The goal markers of the frame being drawn (kept to reuse the buffer).
     markers: Vec<GoalMarker>,
     /// The camera before randomisation.
@@ -131,6 +137,9 @@ pub struct Renderer {
     look: Look,
     /// The episode key the camera and look were drawn for (randomisation only).
     look_key: Option<u64>,
+    /// The sky and the floor as drawn for the floor pose, camera and look they were drawn
+    /// with: the floor never moves, so most frames start from a copy (800 triangles saved).
+    floor_cache: Option<(nalgebra::Isometry3<f64>, Camera, Look, Frame)>,
 }
 
 impl Renderer {
@@ -152,11 +161,15 @@ impl Renderer {
             detail: Detail::for_height(config.height),
             focal_px: camera.focal_px(config.height),
             meshes: Vec::new(),
-            casters: Vec::new(),
+            casters: IndexedMesh::default(),
+            world: Vec::new(),
+            view: Vec::new(),
+            screen: Vec::new(),
             markers: Vec::new(),
             base_camera: camera,
             look: Look::default(),
             look_key: None,
+            floor_cache: None,
             config,
         })
     }
@@ -230,15 +243,27 @@ impl Renderer {
 
     /// Draws a simulation with the goal `markers`.
     pub fn render_with_markers(&mut self, sim: &Simulation, markers: &[GoalMarker]) -> &Frame {
-        self.frame.clear(&self.background);
         self.primitives.clear();
         sim.visual_primitives(&mut self.primitives);
         let light = self.look.light;
         let links = sim.model().links();
         let mut primitives = std::mem::take(&mut self.primitives);
         let mut shadow_planes = Vec::new();
-        self.casters.clear();
-        for (index, p) in primitives.iter().enumerate() {
+        self.casters.vertices.clear();
+        self.casters.triangles.clear();
+        // The floor comes first: the frame starts as the sky with the floor on it.
+        let first = match primitives.first() {
+            Some(floor) if floor.tag == VisualTag::Floor => {
+                shadow_planes.push(floor.pose.translation.z);
+                self.clear_with_floor(floor, &light);
+                1
+            }
+            _ => {
+                self.frame.clear(&self.background);
+                0
+            }
+        };
+        for (index, p) in primitives.iter().enumerate().skip(first) {
             let color = match p.tag {
                 VisualTag::Floor => {
                     shadow_planes.push(p.pose.translation.z);
@@ -300,8 +325,9 @@ impl Renderer {
         &self.frame
     }
 
-    /// Draws primitive `index` (its triangles cached under that index; the goal markers
-    /// follow the scene's primitives).
+    /// Draws primitive `index` (its mesh cached under that index; the goal markers follow
+    /// the scene's primitives). Each vertex is moved, seen and projected once; each triangle
+    /// is then drawn from its corners, the same bits as transforming it on its own.
     fn draw_primitive(
         &mut self,
         index: usize,
@@ -312,26 +338,68 @@ impl Renderer {
     ) {
         if self.meshes.len() <= index {
             self.meshes
-                .resize_with(index + 1, || (VisualShape::Plane, Vec::new()));
+                .resize_with(index + 1, || (VisualShape::Plane, IndexedMesh::default()));
         }
-        let (shape, triangles) = &mut self.meshes[index];
-        if *shape != p.shape || triangles.is_empty() {
-            triangles.clear();
-            tessellate_with(&p.shape, self.detail, triangles);
+        let (shape, mesh) = &mut self.meshes[index];
+        if *shape != p.shape || mesh.triangles.is_empty() {
+            let mut triangles = Vec::new();
+            tessellate_with(&p.shape, self.detail, &mut triangles);
+            *mesh = IndexedMesh::from_triangles(&triangles);
             shape.clone_from(&p.shape);
         }
-        let triangles = std::mem::take(triangles);
-        for t in &triangles {
-            let world = t
-                .map(|v| p.pose * nalgebra::Point3::from(v))
-                .map(|p| p.coords);
-            let normal = (world[1] - world[0]).cross(&(world[2] - world[0]));
-            if casts && normal.dot(light) > 0.0 {
-                self.casters.push(world);
-            }
-            self.draw_triangle(&world, &normal, color, light);
+        let mesh = std::mem::take(&mut self.meshes[index].1);
+        let mut world = std::mem::take(&mut self.world);
+        world.clear();
+        world.extend(
+            mesh.vertices
+                .iter()
+                .map(|v| (p.pose * nalgebra::Point3::from(*v)).coords),
+        );
+        self.project(&world);
+        let (view, screen) = (
+            std::mem::take(&mut self.view),
+            std::mem::take(&mut self.screen),
+        );
+        let offset = self.casters.vertices.len() as u32;
+        if casts {
+            self.casters.vertices.extend_from_slice(&world);
         }
-        self.meshes[index].1 = triangles;
+        for (i, corners) in mesh.triangles.iter().enumerate() {
+            let w = mesh.corners(i, &world);
+            let normal = (w[1] - w[0]).cross(&(w[2] - w[0]));
+            if casts && normal.dot(light) > 0.0 {
+                self.casters.triangles.push(corners.map(|k| k + offset));
+            }
+            let (v, sv) = (mesh.corners(i, &view), mesh.corners(i, &screen));
+            self.draw_seen(&w, &normal, color, light, &v, &sv);
+        }
+        (self.world, self.view, self.screen) = (world, view, screen);
+        self.meshes[index].1 = mesh;
+    }
+
+    /// Fills `self.view` and `self.screen` with `points` seen by the camera and projected.
+    fn project(&mut self, points: &[Vector3<f64>]) {
+        let (camera, projection) = (self.camera, self.projection());
+        self.view.clear();
+        self.view.extend(points.iter().map(|p| camera.to_view(p)));
+        self.screen.clear();
+        self.screen
+            .extend(self.view.iter().map(|v| projection.screen(v)));
+    }
+
+    /// Clears the frame to the sky and draws the floor `p` on it: a copy of the frame the
+    /// last call drew when the floor's pose, the camera and the look are the same (the same
+    /// bits: the floor is the first thing drawn).
+    fn clear_with_floor(&mut self, p: &VisualPrimitive, light: &Vector3<f64>) {
+        if let Some((pose, camera, look, frame)) = &self.floor_cache {
+            if *pose == p.pose && *camera == self.camera && *look == self.look {
+                self.frame.copy_from(frame);
+                return;
+            }
+        }
+        self.frame.clear(&self.background);
+        self.draw_floor(p, light);
+        self.floor_cache = Some((p.pose, self.camera, self.look, self.frame.clone()));
     }
 
     fn draw_floor(&mut self, p: &VisualPrimitive, light: &Vector3<f64>) {
@@ -365,6 +433,23 @@ impl Renderer {
         color: [u8; 3],
         light: &Vector3<f64>,
     ) {
+        let view = world.map(|p| self.camera.to_view(&p));
+        let screen = view.map(|v| self.to_screen_vertex(&v));
+        self.draw_seen(world, normal, color, light, &view, &screen);
+    }
+
+    /// Shades and draws one triangle given in the world, seen by the camera (`view`) and on
+    /// the screen (`screen`, used where all of it lies beyond the near plane), unless it faces
+    /// away from the eye.
+    fn draw_seen(
+        &mut self,
+        world: &Triangle,
+        normal: &Vector3<f64>,
+        color: [u8; 3],
+        light: &Vector3<f64>,
+        view: &Triangle,
+        screen: &[ScreenVertex; 3],
+    ) {
         let to_eye = self.camera.eye - world[0];
         if normal.dot(&to_eye) <= 0.0 {
             return;
@@ -374,8 +459,11 @@ impl Renderer {
             + self.look.diffuse * n.dot(light).max(0.0)
             + HEADLIGHT * n.dot(&to_eye.normalize()).max(0.0);
         let shaded = color.map(|c| (f64::from(c) * shade).round().clamp(0.0, 255.0) as u8);
-        let view = world.map(|p| self.camera.to_view(&p));
-        for t in clip_near(&view).iter().flatten() {
+        if view.iter().all(|v| v.z >= NEAR) {
+            self.frame.fill_triangle(screen, shaded);
+            return;
+        }
+        for t in clip_near(view).iter().flatten() {
             let screen = self.to_screen(t);
             self.frame.fill_triangle(&screen, shaded);
         }
@@ -385,70 +473,56 @@ impl Renderer {
     /// (the floor, the platform's top) and marks where it lands on a visible surface.
     fn draw_shadows(&mut self, light: &Vector3<f64>, planes: &[f64]) {
         let casters = std::mem::take(&mut self.casters);
+        let mut on_plane = std::mem::take(&mut self.world);
         for &h in planes {
-            for t in &casters {
-                if t.iter().all(|p| p.z <= h) {
+            // Each caster vertex dropped along the light onto the plane, once.
+            on_plane.clear();
+            on_plane.extend(casters.vertices.iter().map(|p| {
+                let lift = (p.z - h).max(0.0);
+                let mut q = p - light * (lift / light.z);
+                q.z = h;
+                q
+            }));
+            self.project(&on_plane);
+            for i in 0..casters.triangles.len() {
+                if casters
+                    .corners(i, &casters.vertices)
+                    .iter()
+                    .all(|p| p.z <= h)
+                {
                     continue;
                 }
-                let projected = t.map(|p| {
-                    let lift = (p.z - h).max(0.0);
-                    let mut q = p - light * (lift / light.z);
-                    q.z = h;
-                    self.camera.to_view(&q)
-                });
+                let projected = casters.corners(i, &self.view);
+                if projected.iter().all(|v| v.z >= NEAR) {
+                    let screen = casters.corners(i, &self.screen);
+                    self.frame.mark_shadow(&screen);
+                    continue;
+                }
                 for v in clip_near(&projected).iter().flatten() {
                     let screen = self.to_screen(v);
                     self.frame.mark_shadow(&screen);
                 }
             }
         }
+        self.world = on_plane;
         self.casters = casters;
         self.frame.apply_shadows(SHADOW);
     }
 
     fn to_screen(&self, t: &Triangle) -> [ScreenVertex; 3] {
-        let f = self.focal_px;
-        let (cx, cy) = (
-            f64::from(self.config.width) / 2.0,
-            f64::from(self.config.height) / 2.0,
-        );
-        t.map(|v| ScreenVertex {
-            x: (cx + f * v.x / v.z) as f32,
-            y: (cy - f * v.y / v.z) as f32,
-            inv_depth: (1.0 / v.z) as f32,
-        })
+        let projection = self.projection();
+        t.map(|v| projection.screen(&v))
     }
-}
 
-/// Clips a view-space triangle to the part in front of the near plane: none, one or two
-/// triangles.
-fn clip_near(t: &Triangle) -> [Option<Triangle>; 2] {
-    let inside = t.map(|v| v.z >= NEAR);
-    match inside.iter().filter(|&&i| i).count() {
-        3 => [Some(*t), None],
-        0 => [None, None],
-        _ => {
-            let mut poly: Vec<Vector3<f64>> = Vec::with_capacity(4);
-            for i in 0..3 {
-                let (a, b) = (t[i], t[(i + 1) % 3]);
-                if inside[i] {
-                    poly.push(a);
-                }
-                if inside[i] != inside[(i + 1) % 3] {
-                    let s = (NEAR - a.z) / (b.z - a.z);
-                    let mut p = a + (b - a) * s;
-                    p.z = NEAR;
-                    poly.push(p);
-                }
-            }
-            match poly.len() {
-                3 => [Some([poly[0], poly[1], poly[2]]), None],
-                4 => [
-                    Some([poly[0], poly[1], poly[2]]),
-                    Some([poly[0], poly[2], poly[3]]),
-                ],
-                _ => [None, None],
-            }
+    fn to_screen_vertex(&self, v: &Vector3<f64>) -> ScreenVertex {
+        self.projection().screen(v)
+    }
+
+    fn projection(&self) -> Projection {
+        Projection {
+            focal_px: self.focal_px,
+            cx: f64::from(self.config.width) / 2.0,
+            cy: f64::from(self.config.height) / 2.0,
         }
     }
 }
@@ -456,22 +530,6 @@ fn clip_near(t: &Triangle) -> [Option<Triangle>; 2] {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn near_clipping_keeps_the_front_part() {
-        let t = [
-            Vector3::new(0.0, 0.0, -1.0),
-            Vector3::new(1.0, 0.0, 1.0),
-            Vector3::new(-1.0, 0.0, 1.0),
-        ];
-        let [a, b] = clip_near(&t);
-        let (a, b) = (a.unwrap(), b.unwrap());
-        for v in a.iter().chain(&b) {
-            assert!(v.z >= NEAR - 1e-12);
-        }
-        let behind = t.map(|v| Vector3::new(v.x, v.y, -2.0));
-        assert_eq!(clip_near(&behind), [None, None]);
-    }
 
     #[test]
     fn sizes_are_validated() {

@@ -18,8 +18,11 @@ from stable_baselines3 import PPO
 
 from panda_rapier import cli
 from panda_rapier.errors import ConfigError, InvalidArgumentError
+from panda_rapier.evaluation import evaluate
 from panda_rapier.inference import resolve_policy
+from panda_rapier.pixels import randomization_of
 from panda_rapier.registration import env_config
+from panda_rapier.reporting import ROBUSTNESS_CONDITIONS, robustness_table
 from panda_rapier.sb3 import make_vec_env
 from panda_rapier.student import collect_student, distil
 from panda_rapier.student_model import (
@@ -35,8 +38,10 @@ ENV_ID = "panda_rapier/PickAndPlace-v0"
 #: A small image keeps the tests quick; the shipped recipe's size is in the recipe.
 OBSERVATION = {"obs_mode": "proprio+rgb", "image_size": 48}
 REPO = Path(__file__).resolve().parents[2]
+#: The tiny run trains under visual randomisation (what it is evaluated with is the plain scene).
+RANDOMISED = {**OBSERVATION, "visual_randomization": True}
 TINY = {
-    "env_kwargs": OBSERVATION,
+    "env_kwargs": RANDOMISED,
     "student": {"channels": [8, 16, 8], "strides": [2, 2, 1], "net_arch": {"pi": [64], "vf": [64]}},
     "n_envs": 8,
     "demo_episodes": 8,
@@ -144,7 +149,7 @@ def test_dagger_improves_the_student_on_a_tiny_budget() -> None:
 def test_train_writes_a_student_that_loads_by_data(tiny_run: Path) -> None:
     run = json.loads((tiny_run / "run.json").read_text())
     assert run["student"]["channels"] == [8, 16, 8]
-    assert run["env_kwargs"] == OBSERVATION
+    assert run["env_kwargs"] == RANDOMISED
     assert run["env_steps"] == 16 * 70
     lines = (tiny_run / "evaluations.jsonl").read_text().splitlines()
     assert len(lines) == 3  # after the first fit, the round and the final fit
@@ -164,6 +169,7 @@ def test_a_student_is_evaluated_without_trusting_its_file(
     tiny_run: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     resolved = resolve_policy(tiny_run / "model.zip")
+    # Trained under randomisation, evaluated on the plain scene unless asked.
     assert resolved.observation == OBSERVATION
     assert "obs_mode" not in resolved.config
     code = cli.main(["eval", "--policy", str(tiny_run / "model.zip"), "--episodes", "2", "--quiet"])
@@ -171,6 +177,54 @@ def test_a_student_is_evaluated_without_trusting_its_file(
     assert "inference           torch-f32" in capsys.readouterr().out
     with pytest.raises(InvalidArgumentError, match="torch only"):
         resolve_policy(tiny_run / "model.zip", inference="native")
+
+
+def test_the_robustness_table_evaluates_each_randomisation(tiny_run: Path) -> None:
+    table, records = robustness_table([tiny_run / "model.zip"], episodes=3, progress=False)
+    assert set(records) == {f"model.zip {c}" for c in ROBUSTNESS_CONDITIONS}
+    assert "(trained under randomisation)" in table.splitlines()[0]
+    assert len(table.splitlines()) == 2 + len(ROBUSTNESS_CONDITIONS)
+    # The plain row is what `panda-rapier eval` reports on those seeds.
+    plain = resolve_policy(tiny_run / "model.zip")
+    report = evaluate(plain.policy, plain.config, 3, **plain.observation)
+    assert records["model.zip off"]["success_by_episode"] == "".join(
+        "1" if e.success else "0" for e in report.episodes
+    )
+    assert records["model.zip off"]["mean_return"] == report.summary()["mean_return"]
+
+    # Each randomisation changes what the student sees, and so what it does.
+    def first_actions(**observation: Any) -> np.ndarray:
+        seen: list[np.ndarray] = []
+        evaluate(
+            plain.policy, plain.config, 1, on_step=lambda _o, a, *_: seen.append(a.copy()),
+            **observation,
+        )  # fmt: skip
+        return np.concatenate(seen[:3])
+
+    plain_actions = first_actions(**plain.observation)
+    for condition in ROBUSTNESS_CONDITIONS[1:]:
+        randomised = {**plain.observation, "visual_randomization": randomization_of(condition)}
+        assert not np.array_equal(first_actions(**randomised), plain_actions), condition
+
+
+def test_visual_randomization_in_eval_names_what_it_randomises(
+    tiny_run: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert randomization_of("off") is None
+    only_light = randomization_of("light")
+    assert only_light is not None
+    assert {k for k, v in only_light.items() if v and k != "seed"} == {
+        "light_direction",
+        "light_intensity",
+    }
+    with pytest.raises(ConfigError, match="unknown visual randomisation"):
+        randomization_of("fog")
+    args = ["eval", "--policy", str(tiny_run / "model.zip"), "--episodes", "2", "--quiet"]
+    assert cli.main([*args, "--visual-randomization", "noise"]) == 0
+    assert "visual randomisation noise" in capsys.readouterr().out
+    # A policy that reads the state sees no pictures to randomise.
+    assert cli.main(["eval", "--policy", "scripted", "--visual-randomization", "all"]) == 2
+    assert "needs a policy that sees images" in capsys.readouterr().err
 
 
 def test_a_damaged_or_foreign_student_file_is_refused(tiny_run: Path, tmp_path: Path) -> None:

@@ -28,8 +28,9 @@ from pathlib import Path
 from typing import Any
 
 from . import __version__
-from .errors import PandaRapierError
+from .errors import InvalidArgumentError, PandaRapierError
 from .inference import INFERENCE_CHOICES
+from .pixels import RANDOMIZATION_GROUPS, randomization_of
 from .registration import DEFAULT_ENV_ID, ENV_IDS
 
 
@@ -133,6 +134,14 @@ def _parser() -> argparse.ArgumentParser:
         help="allow loading the model with stable-baselines3, which unpickles (and may run) "
         "code from the file: needed for models the native network cannot act out (image "
         "policies, other architectures) and for --inference torch",
+    )
+    evaluation.add_argument(
+        "--visual-randomization",
+        choices=("off", "all", *RANDOMIZATION_GROUPS),
+        default=None,
+        help="evaluate an image policy under visual randomisation: all of it, or only the "
+        "camera, light, colors or noise (their ranges: panda_rapier.pixels.VISUAL_RANDOMIZATION);"
+        " default off, whatever the model was trained with",
     )
     evaluation.add_argument("--json", type=Path, default=None, help="write the report here")
     evaluation.add_argument(
@@ -578,6 +587,16 @@ def _run_eval(args: argparse.Namespace) -> int:
     policy, config, observation, label = (
         resolved.policy, resolved.config, resolved.observation, resolved.label
     )  # fmt: skip
+    if args.visual_randomization not in (None, "off"):
+        if not observation.get("obs_mode", "state").endswith("rgb"):
+            raise InvalidArgumentError(
+                f"--visual-randomization needs a policy that sees images; {label} acts on "
+                f"obs_mode={observation.get('obs_mode', 'state')!r}"
+            )
+        observation = {
+            **observation,
+            "visual_randomization": randomization_of(args.visual_randomization),
+        }
 
     recorder = None
     if args.video is not None:
@@ -613,6 +632,8 @@ def _run_eval(args: argparse.Namespace) -> int:
         f"{summary['reward_type']} reward, "
         f"{summary['max_episode_steps']} steps, seeds {args.seed}..{args.seed + args.episodes - 1})"
     )
+    if args.visual_randomization not in (None, "off"):
+        print(f"  visual randomisation {args.visual_randomization} (seed 0)")
     print(
         f"  success rate        {summary['success_rate']:.3f} "
         f"(95 % CI {low:.3f}-{high:.3f}); cube placed in {summary['placed_rate']:.3f}"

@@ -63,6 +63,35 @@ VISUAL_RANDOMIZATION: dict[str, Any] = {
     "seed": 0,
 }
 
+#: The randomisations by what they change, as ``panda-rapier eval --visual-randomization`` and
+#: the robustness table (:func:`randomization_of`) name them; ``seed`` belongs to none.
+RANDOMIZATION_GROUPS: dict[str, tuple[str, ...]] = {
+    "camera": ("camera_position", "camera_fov"),
+    "light": ("light_direction", "light_intensity"),
+    "colors": ("colors",),
+    "noise": ("noise",),
+}
+
+
+def randomization_of(name: str) -> dict[str, Any] | None:
+    """The ``visual_randomization`` value a name stands for: ``"off"`` (``None``), ``"all"``
+    (:data:`VISUAL_RANDOMIZATION`) or one of :data:`RANDOMIZATION_GROUPS` (its ranges at their
+    defaults, every other range 0)."""
+    if name == "off":
+        return None
+    if name == "all":
+        return dict(VISUAL_RANDOMIZATION)
+    if name not in RANDOMIZATION_GROUPS:
+        raise ConfigError(
+            f"unknown visual randomisation {name!r}; known: off, all, "
+            + ", ".join(RANDOMIZATION_GROUPS)
+        )
+    return {
+        k: (v if k in RANDOMIZATION_GROUPS[name] or k == "seed" else type(v)(0))
+        for k, v in VISUAL_RANDOMIZATION.items()
+    }
+
+
 #: Default image size (pixels, square), a common size for pixel-based RL (Atari's 84x84).
 DEFAULT_IMAGE_SIZE = 84
 
@@ -273,3 +302,11 @@ def split_options(options: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str,
     config = {k: v for k, v in options.items() if k not in OBSERVATION_OPTIONS}
     observation = {k: v for k, v in options.items() if k in OBSERVATION_OPTIONS}
     return config, observation
+
+
+def plain_observation(observation: Mapping[str, Any]) -> dict[str, Any]:
+    """The observation options a model is validated and evaluated with: those it was trained
+    with, without ``visual_randomization``. Randomisation is something to train with; a
+    benchmark's scene is the plain one unless an evaluation asks otherwise
+    (``panda-rapier eval --visual-randomization``)."""
+    return {k: v for k, v in observation.items() if k != "visual_randomization"}

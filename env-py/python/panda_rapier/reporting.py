@@ -1,5 +1,6 @@
 """Learning curves and the benchmark table of shipped models: what ``panda-rapier curves``
-and ``panda-rapier models-table`` run.
+and ``panda-rapier models-table`` run; the robustness table of the policies that see
+(``scripts/robustness_table.py``).
 
 Both read what ``panda-rapier train`` writes (``evaluations.jsonl``, ``run.json``, the run
 record inside each model zip); the table evaluates every row as ``panda-rapier eval --policy
@@ -17,9 +18,10 @@ from typing import Any
 
 from .errors import ConfigError, InvalidArgumentError
 from .model_file import read_run_info
+from .pixels import RANDOMIZATION_GROUPS, randomization_of
 from .registration import TASK_NAMES, TASKS, task_id, variant
 
-__all__ = ["models_table", "plot_curves", "run_label"]
+__all__ = ["ROBUSTNESS_CONDITIONS", "models_table", "plot_curves", "robustness_table", "run_label"]
 
 
 def _evaluations(run: Path) -> list[dict[str, Any]]:
@@ -112,24 +114,32 @@ BASELINES = ("random", "scripted")
 
 
 def _evaluate_row(
-    spec: str, env_id: str | None, episodes: int, progress: bool, label: str
+    spec: str,
+    env_id: str | None,
+    episodes: int,
+    progress: bool,
+    label: str,
+    visual_randomization: str = "off",
 ) -> tuple[dict[str, Any], list[Any]]:
-    """``panda-rapier eval --policy SPEC [--env-id ENV_ID] --episodes EPISODES`` as a library
-    call (the same resolution of the policy and its environment): the summary and the
-    episodes."""
+    """``panda-rapier eval --policy SPEC [--env-id ENV_ID] --episodes EPISODES
+    [--visual-randomization NAME]`` as a library call (the same resolution of the policy and
+    its environment): the summary and the episodes."""
     from tqdm import tqdm
 
     from .evaluation import evaluate
     from .inference import resolve_policy
 
     resolved = resolve_policy(spec, env_id)
+    observation = dict(resolved.observation)
+    if visual_randomization != "off":
+        observation["visual_randomization"] = randomization_of(visual_randomization)
     with tqdm(total=episodes, desc=label, unit="ep", disable=not progress, leave=False) as bar:
         report = evaluate(
             resolved.policy,
             resolved.config,
             episodes,
             progress=lambda done: bar.update(done - bar.n),
-            **resolved.observation,
+            **observation,
         )
     report.policy = resolved.label
     return report.summary(), report.episodes
@@ -341,3 +351,58 @@ def _out_of(command: Sequence[str]) -> str:
     if "--out" in parts[:-1]:
         return parts[parts.index("--out") + 1]
     return "OUT"
+
+
+#: The conditions of :func:`robustness_table`, in its rows' order.
+ROBUSTNESS_CONDITIONS = ("off", *RANDOMIZATION_GROUPS, "all")
+
+
+def robustness_table(
+    models: Sequence[Path], episodes: int = 500, progress: bool = True
+) -> tuple[str, dict[str, Any]]:
+    """How image policies hold up under visual randomisation: each model in ``models``
+    evaluated on seeds ``0 .. episodes - 1`` (the benchmark table's first ones) with no
+    randomisation, with each group of :data:`~panda_rapier.pixels.RANDOMIZATION_GROUPS` alone
+    at its default ranges, and with all of them (``panda-rapier eval --policy MODEL
+    --visual-randomization NAME``). One column per model, headed by what it was trained with.
+
+    Returns the markdown and the evaluations (per model and condition, the summary and each
+    episode's success and placed flags as strings of 0 and 1)."""
+    from tqdm import tqdm
+
+    trained: list[str] = []
+    for model in models:
+        run = read_run_info(model)
+        options = (run or {}).get("env_kwargs")
+        if run is None or not isinstance(options, dict) or "obs_mode" not in options:
+            raise InvalidArgumentError(f"{model} is not a model that sees: no image obs_mode")
+        how = options.get("visual_randomization")
+        trained.append("under randomisation" if how not in (None, False) else "on the plain scene")
+    records: dict[str, Any] = {}
+    cells: dict[tuple[str, str], str] = {}
+    total = len(models) * len(ROBUSTNESS_CONDITIONS)
+    with tqdm(total=total, desc="evaluations", unit="eval", disable=not progress) as bar:
+        for model in models:
+            for condition in ROBUSTNESS_CONDITIONS:
+                summary, run_episodes = _evaluate_row(
+                    str(model), None, episodes, progress, f"{model.stem} {condition}", condition
+                )
+                records[f"{model.name} {condition}"] = {
+                    **summary,
+                    "success_by_episode": "".join("1" if e.success else "0" for e in run_episodes),
+                    "placed_by_episode": "".join("1" if e.placed else "0" for e in run_episodes),
+                }
+                low, high = summary["success_ci95"]
+                cells[model.name, condition] = (
+                    f"{summary['success_rate']:.3f} ({low:.3f}-{high:.3f}) / "
+                    f"{summary['placed_rate']:.3f}"
+                )
+                bar.update(1)
+    header = "| evaluated with | " + " | ".join(
+        f"`{m.name}` (trained {how})" for m, how in zip(models, trained, strict=True)
+    )
+    lines = [header + " |", "|---" * (len(models) + 1) + "|"]
+    for condition in ROBUSTNESS_CONDITIONS:
+        name = {"off": "no randomisation", "all": "all of them"}.get(condition, condition)
+        lines.append(f"| {name} | " + " | ".join(cells[m.name, condition] for m in models) + " |")
+    return "\n".join(lines) + "\n", records

@@ -27,7 +27,7 @@ from torch import nn
 
 from ._common import CLIP, MIN_SCALE, standardisation
 from .errors import ConfigError, InvalidArgumentError
-from .pixels import split_options
+from .pixels import plain_observation, split_options
 
 __all__ = [
     "DEFAULT_ARCHITECTURE",
@@ -260,4 +260,4 @@ def load_student(path: str | Path) -> StudentModel:
     except (RuntimeError, TypeError) as error:
         raise InvalidArgumentError(f"{path}: weights unfit for the student: {error}") from None
     policy.set_training_mode(False)
-    return StudentModel(policy, split_options(options)[1], dict(run))
+    return StudentModel(policy, plain_observation(split_options(options)[1]), dict(run))

@@ -53,7 +53,7 @@ from .errors import ConfigError, InvalidArgumentError
 from .model_file import RUN_MEMBER as RUN_MEMBER
 from .model_file import read_run_info as read_run_info
 from .model_file import save_model as save_model
-from .pixels import split_options
+from .pixels import plain_observation, split_options
 from .registration import ENV_IDS, TASKS, env_config, variant
 
 __all__ = [
@@ -559,7 +559,7 @@ def train(
             from .student import train_student
 
             recorder = _Recorder(out, config, run, eval_episodes, num_threads, 0.0, say,
-                                 on_evaluation, observation)  # fmt: skip
+                                 on_evaluation, plain_observation(observation))  # fmt: skip
             return train_student(
                 run, recipe, config, observation, out, n_envs, num_threads, recorder, say,
                 show_progress=progress, fit_threads=run["update_threads"],

@@ -1,0 +1,58 @@
+//! Renders every step of scripted episodes as an observation camera sees them, for profilers
+//! (callgrind counts instructions reliably on a busy machine):
+//!
+//! `valgrind --tool=callgrind target/release/examples/profile_frames -- STEPS SIZE [render|none] [RENDER.json]`
+//!
+//! `none` steps the same episodes without drawing, so that the difference of the two counts
+//! is the frames' cost (`scripts/instructions-per-frame`). The default picture is the Python
+//! package's default observation camera (`panda_rapier.pixels.DEFAULT_CAMERA`, no goal
+//! markers); a render configuration file (JSON, as `RenderConfig::from_json` reads it)
+//! replaces it.
+
+use panda_rapier::env::PandaEnv;
+use panda_rapier::policies::ScriptedPolicy;
+use panda_rapier::render::{RenderConfig, Renderer};
+use panda_rapier::task::{EnvConfig, ResetOptions};
+
+/// `panda_rapier.pixels.DEFAULT_CAMERA`, the camera of `obs_mode="proprio+rgb"`.
+const OBSERVATION_CAMERA: &str = r#"{"target": [0.45, 0.05, 0.22], "distance": 1.35,
+    "azimuth": 25.0, "elevation": 35.0, "fov": 45.0}"#;
+
+fn main() -> panda_rapier::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let steps: usize = args.first().and_then(|s| s.parse().ok()).unwrap_or(200);
+    let size: u32 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(84);
+    let draw = args.get(2).is_none_or(|s| s != "none");
+    let render = match args.get(3) {
+        Some(path) => std::fs::read_to_string(path).expect("render configuration file"),
+        None => format!(
+            r#"{{"width": {size}, "height": {size}, "show_goal": false, "camera": {OBSERVATION_CAMERA}}}"#
+        ),
+    };
+    let mut renderer = Renderer::new(RenderConfig::from_json(&render)?)?;
+    let config = EnvConfig::default();
+    let mut env = PandaEnv::new(config.clone())?;
+    let mut policy = ScriptedPolicy::new(&config)?;
+    let options = ResetOptions::default();
+    let mut seed = 0;
+    env.reset(Some(seed), &options)?;
+    let mut action = vec![0.0f32; env.action_dim()];
+    let mut checksum = 0u64;
+    for _ in 0..steps {
+        if draw {
+            let frame = renderer.render(&env);
+            checksum = frame
+                .rgb()
+                .iter()
+                .fold(checksum, |h, &b| h.rotate_left(5) ^ u64::from(b));
+        }
+        policy.act(env.observation(), &mut action)?;
+        let t = env.step(&action)?;
+        if t.terminated || t.truncated {
+            seed += 1;
+            env.reset(Some(seed), &options)?;
+        }
+    }
+    println!("{steps} steps, frames drawn: {draw}, checksum {checksum:016x}");
+    Ok(())
+}
