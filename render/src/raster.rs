@@ -137,9 +137,10 @@ fn ceil_to_index(v: f32) -> usize {
     if v <= 0.0 {
         return 0;
     }
+    // Saturating: `v as usize` saturates too, at `usize::MAX` for huge or infinite `v`.
     let t = v as usize;
     if (t as f32) < v {
-        t + 1
+        t.saturating_add(1)
     } else {
         t
     }
