@@ -459,13 +459,8 @@ impl Renderer {
             + self.look.diffuse * n.dot(light).max(0.0)
             + HEADLIGHT * n.dot(&to_eye.normalize()).max(0.0);
         let shaded = color.map(|c| (f64::from(c) * shade).round().clamp(0.0, 255.0) as u8);
-        if view.iter().all(|v| v.z >= NEAR) {
-            self.frame.fill_triangle(screen, shaded);
-            return;
-        }
-        for t in clip_near(view).iter().flatten() {
-            let screen = self.to_screen(t);
-            self.frame.fill_triangle(&screen, shaded);
+        for t in self.on_screen(view, screen).iter().flatten() {
+            self.frame.fill_triangle(t, shaded);
         }
     }
 
@@ -492,21 +487,31 @@ impl Renderer {
                 {
                     continue;
                 }
-                let projected = casters.corners(i, &self.view);
-                if projected.iter().all(|v| v.z >= NEAR) {
-                    let screen = casters.corners(i, &self.screen);
-                    self.frame.mark_shadow(&screen);
-                    continue;
-                }
-                for v in clip_near(&projected).iter().flatten() {
-                    let screen = self.to_screen(v);
-                    self.frame.mark_shadow(&screen);
+                let (view, screen) = (
+                    casters.corners(i, &self.view),
+                    casters.corners(i, &self.screen),
+                );
+                for t in self.on_screen(&view, &screen).iter().flatten() {
+                    self.frame.mark_shadow(t);
                 }
             }
         }
         self.world = on_plane;
         self.casters = casters;
         self.frame.apply_shadows(SHADOW);
+    }
+
+    /// A view-space triangle on the screen: `screen` (its corners projected) where it lies
+    /// wholly beyond the near plane, else the projections of its clipped parts.
+    fn on_screen(
+        &self,
+        view: &Triangle,
+        screen: &[ScreenVertex; 3],
+    ) -> [Option<[ScreenVertex; 3]>; 2] {
+        if view.iter().all(|v| v.z >= NEAR) {
+            return [Some(*screen), None];
+        }
+        clip_near(view).map(|t| t.map(|t| self.to_screen(&t)))
     }
 
     fn to_screen(&self, t: &Triangle) -> [ScreenVertex; 3] {

@@ -189,11 +189,7 @@ def models_table(
 
         def evaluated(key: str, spec: str, env_id: str | None) -> dict[str, Any]:
             summary, episodes_run = _evaluate_row(spec, env_id, episodes, progress, key)
-            records[key] = {
-                **summary,
-                "success_by_episode": "".join("1" if e.success else "0" for e in episodes_run),
-                "placed_by_episode": "".join("1" if e.placed else "0" for e in episodes_run),
-            }
+            records[key] = _record(summary, episodes_run)
             rows_bar.update(1)
             return summary
 
@@ -239,6 +235,16 @@ def models_table(
         + "\n"
     )
     return text, records
+
+
+def _record(summary: dict[str, Any], episodes: Sequence[Any]) -> dict[str, Any]:
+    """An evaluation as the tables keep it: the summary and each episode's success and placed
+    flags as strings of 0 and 1."""
+    return {
+        **summary,
+        "success_by_episode": "".join("1" if e.success else "0" for e in episodes),
+        "placed_by_episode": "".join("1" if e.placed else "0" for e in episodes),
+    }
 
 
 def _row(
@@ -387,11 +393,7 @@ def robustness_table(
                 summary, run_episodes = _evaluate_row(
                     str(model), None, episodes, progress, f"{model.stem} {condition}", condition
                 )
-                records[f"{model.name} {condition}"] = {
-                    **summary,
-                    "success_by_episode": "".join("1" if e.success else "0" for e in run_episodes),
-                    "placed_by_episode": "".join("1" if e.placed else "0" for e in run_episodes),
-                }
+                records[f"{model.name} {condition}"] = _record(summary, run_episodes)
                 low, high = summary["success_ci95"]
                 cells[model.name, condition] = (
                     f"{summary['success_rate']:.3f} ({low:.3f}-{high:.3f}) / "
