@@ -371,3 +371,143 @@ def test_tune_sweep_of_tqc_her_reports_success_rate(ray_session: None, tmp_path:
     assert results.get_best_result().metrics["success_rate"] == max(
         r.metrics["success_rate"] for r in results
     )
+
+
+def test_ppo_config_follows_the_sb3_recipe() -> None:
+    from panda_rapier.rllib import recipe_training
+    from panda_rapier.rllib_recipe import RecipePPOTorchRLModule
+    from panda_rapier.training import load_recipe
+
+    recipe = load_recipe("ppo", DENSE)
+    settings = recipe_training(recipe)
+    assert settings["train_batch_size_per_learner"] == recipe["n_envs"] * recipe["n_steps"]
+    assert settings["minibatch_size"] == recipe["batch_size"] == 1024
+    assert (settings["num_epochs"], settings["gamma"], settings["lambda_"]) == (8, 0.8, 0.9)
+    assert settings["use_kl_loss"] and settings["kl_target"] == recipe["target_kl"] == 0.1
+    assert settings["vf_clip_param"] == math.inf and settings["vf_loss_coeff"] == 0.5
+    reach = recipe_training(load_recipe("ppo", "panda_rapier/ReachDense-v0"))
+    assert reach["lr"] == [[0, 3e-4], [1_000_000, 0.0]] and not reach["use_kl_loss"]
+    config = ppo_config(DENSE)
+    assert config.rl_module_spec.module_class is RecipePPOTorchRLModule
+    model = config.model_config
+    assert model["fcnet_hiddens"] == [256, 256] and model["fcnet_activation"] == "relu"
+    assert model["free_log_std"] and not model["vf_share_layers"]
+    assert (model["log_std_init"], model["min_action_std"], model["action_std_dims"]) == (
+        -0.5,
+        0.3,
+        [-1],
+    )
+    assert len(model["observation_mean"]) == len(model["observation_scale"]) == 47
+    assert min(model["observation_scale"]) >= np.float32(0.01)
+    assert "observation_mean" in ppo_config("panda_rapier/PushDense-v0").model_config
+    assert "min_action_std" not in ppo_config("panda_rapier/PushDense-v0").model_config
+    with pytest.raises(ConfigError, match="no recipe"):
+        ppo_config("panda_rapier/PickAndPlace-v0")
+
+
+def _recipe_module() -> Any:
+    import gymnasium as gym
+    from ray.rllib.core import DEFAULT_MODULE_ID
+
+    config = ppo_config(DENSE)
+    space = gym.spaces.Box(-np.inf, np.inf, (47,), np.float32)
+    action = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
+    spaces = {DEFAULT_MODULE_ID: (space, action)}
+    return config.get_rl_module_spec(spaces=spaces, inference_only=False).build()
+
+
+def test_recipe_module_standardises_and_floors_the_gripper_noise() -> None:
+    import torch
+    from ray.rllib.core.columns import Columns
+
+    module = _recipe_module()
+    mean = module.observation_mean.numpy()
+    scale = module.observation_scale.numpy()
+    rng = np.random.default_rng(0)
+    obs = torch.as_tensor(mean + scale * rng.normal(size=(5, 47)).astype(np.float32))
+    with torch.no_grad():
+        inputs = module.forward_inference({Columns.OBS: obs})[Columns.ACTION_DIST_INPUTS]
+        np.testing.assert_allclose(inputs[:, 4:].numpy(), -0.5)  # log_std_init
+        module.pi.log_std.fill_(-3.0)
+        inputs = module.forward_inference({Columns.OBS: obs})[Columns.ACTION_DIST_INPUTS]
+        # The gripper's (last) log std stays at log(0.3); the others follow the parameter.
+        np.testing.assert_allclose(inputs[:, 4:7].numpy(), -3.0)
+        np.testing.assert_allclose(inputs[:, 7].numpy(), math.log(0.3), rtol=1e-6)
+        # The encoders see (obs - mean) / scale: shifting obs by the mean and scaling by the
+        # scale is what the module undoes.
+        encoder = module.encoder.actor_encoder
+        plain = encoder({Columns.OBS: (obs - module.observation_mean) / module.observation_scale})
+        seen = module.encoder(module._standardised({Columns.OBS: obs}))
+        np.testing.assert_allclose(
+            plain["encoder_out"].numpy(), seen["encoder_out"]["actor"].numpy(), rtol=1e-6
+        )
+        values = module.compute_values({Columns.OBS: obs})
+        assert values.shape == (5,) and torch.isfinite(values).all()
+
+
+def test_exported_policy_acts_as_the_module(tmp_path: Path) -> None:
+    import gymnasium as gym
+    import torch
+    from ray.rllib.core.columns import Columns
+
+    from panda_rapier.inference import PolicyNetwork
+    from panda_rapier.model_file import read_run_info
+    from panda_rapier.rllib_recipe import export_policy
+    from panda_rapier.training import load_recipe
+
+    module = _recipe_module()
+    with torch.no_grad():
+        for p in module.parameters():
+            p.add_(0.05 * torch.randn_like(p))
+    run = {"env_id": DENSE, "env_kwargs": {"reward_weights": {"release": 1.0}},
+           "config": env_config(DENSE, reward_weights={"release": 1.0})}  # fmt: skip
+    path = export_policy(module, tmp_path / "m.zip", recipe=load_recipe("ppo", DENSE), run=run)
+    assert read_run_info(path)["env_id"] == DENSE
+    network = PolicyNetwork.from_zip(path)
+    env = gym.make(DENSE)
+    rows = []
+    for seed in range(4):
+        obs, _ = env.reset(seed=seed)
+        rows.append(np.concatenate([obs[k] for k in DICT_KEYS]))
+    env.close()
+    flat = np.stack(rows).astype(np.float32)
+    with torch.no_grad():
+        inputs = module.forward_inference({Columns.OBS: torch.as_tensor(flat)})
+    means = inputs[Columns.ACTION_DIST_INPUTS][:, :4].numpy()
+    np.testing.assert_allclose(network.act(flat), np.clip(means, -1, 1), rtol=1e-5, atol=1e-6)
+
+
+def test_train_with_the_rllib_backend_writes_a_run_eval_reads(
+    ray_session: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from panda_rapier.cli import main
+
+    out = tmp_path / "run"
+
+    def train(timesteps: int, *extra: str) -> int:
+        return main(["train", "--algo", "ppo", "--backend", "rllib", "--env-id", DENSE,
+                     "--out", str(out), "--timesteps", str(timesteps), "--eval-every", "4096",
+                     "--checkpoint-every", "4096", "--eval-episodes", "4",
+                     "--num-env-runners", "1", "--num-envs-per-env-runner", "8",
+                     "--final", "best", "--quiet", *extra])  # fmt: skip
+
+    assert train(8192) == 0
+    run_info = json.loads((out / "run.json").read_text())
+    assert run_info["backend"] == "rllib" and run_info["env_steps"] >= 8192
+    lines = [json.loads(x) for x in (out / "evaluations.jsonl").read_text().splitlines()]
+    assert len(lines) == 2 and all(0 <= x["success_rate"] <= 1 for x in lines)
+    assert (out / "best.zip").is_file() and (out / "checkpoints" / "state.json").is_file()
+    assert main(["eval", "--policy", str(out / "model.zip"), "--episodes", "4", "--quiet"]) == 0
+    # Resumed with more steps, it goes on from its checkpoint.
+    assert train(12288, "--resume") == 0
+    run_info = json.loads((out / "run.json").read_text())
+    assert run_info["env_steps"] >= 12288 and len(run_info["resumed_with"]) == 1
+    capsys.readouterr()
+    wrong = [
+        (["--algo", "sac", "--backend", "rllib"], "ppo only"),
+        (["--algo", "ppo", "--backend", "rllib", "--init-from", "x.zip"], "--init-from"),
+        (["--algo", "ppo", "--num-env-runners", "3"], "are for --backend rllib"),
+    ]
+    for extra, message in wrong:
+        assert main(["train", "--out", str(tmp_path / "x"), *extra]) == 2
+        assert message in capsys.readouterr().err

@@ -13,6 +13,7 @@ runner; the work itself lives in the modules the runners call.
         --variant one-thread update_threads=1
     panda-rapier train --algo bc --env-id panda_rapier/PickAndPlace-v0 --out runs/bc
     panda-rapier train --algo ppo --env-id panda_rapier/PickAndPlaceDense-v0 --out runs/ppo
+    panda-rapier train --algo ppo --backend rllib --out runs/rllib_ppo --num-env-runners 2
     panda-rapier curves runs/bc runs/ppo --out curves.png
     panda-rapier models-table models/ --out models/README.md
 """
@@ -23,7 +24,7 @@ import argparse
 import contextlib
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -224,8 +225,9 @@ def _parser() -> argparse.ArgumentParser:
         nargs="+",
         action="append",
         metavar="NAME [KEY=VALUE ...]",
-        help="a variant: a name, then recipe overrides and update_threads (torch's threads "
-        "during updates); repeat for each (default: one, the recipe as it is)",
+        help="a variant: a name, then recipe overrides, update_threads (torch's threads "
+        "during updates) and backend=rllib (ppo: the same recipe trained by RLlib); repeat "
+        "for each (default: one, the recipe as it is)",
     )
     bench_train.add_argument(
         "--steps", type=_positive, default=81_920, help="env steps per run (default 81,920)"
@@ -328,6 +330,25 @@ def _parser() -> argparse.ArgumentParser:
         default="last",
         help="what model.zip holds: the weights training ended with (default) or the best "
         "evaluation's, so a run never ends on a policy that fell back after its best",
+    )
+    train.add_argument(
+        "--backend",
+        choices=("sb3", "rllib"),
+        default="sb3",
+        help="who trains: stable-baselines3 on the native VecEnv (default), or RLlib (ppo "
+        "only; the same recipe, EnvRunners on a local Ray or a cluster: docs/guide/ray.md)",
+    )
+    train.add_argument(
+        "--num-env-runners", type=_positive, default=2, help="rllib: EnvRunners (Ray actors)"
+    )
+    train.add_argument(
+        "--num-envs-per-env-runner",
+        type=_positive,
+        default=None,
+        help="rllib: environments per EnvRunner (default: the recipe's n_envs shared out)",
+    )
+    train.add_argument(
+        "--address", default=None, help="rllib: a running Ray cluster (auto); default: local"
     )
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.set_defaults(run=_run_train)
@@ -440,10 +461,65 @@ def _env_kwargs(items: Sequence[str]) -> dict[str, Any]:
     return options
 
 
+#: ``panda-rapier train`` options that only the stable-baselines3 backend reads, with their
+#: defaults.
+_SB3_ONLY = {
+    "n_envs": None,
+    "init_from": None,
+    "trust_model_file": False,
+    "threads": None,
+    "update_threads": None,
+}
+
+
+def _run_train_rllib(args: argparse.Namespace) -> dict[str, Any]:
+    if args.algo != "ppo":
+        raise InvalidArgumentError(f"--backend rllib trains ppo only, not {args.algo}")
+    given = [k for k, default in _SB3_ONLY.items() if getattr(args, k) != default]
+    if given or args.torch_threads != 1:
+        names = [f"--{k.replace('_', '-')}" for k in given]
+        names += ["--torch-threads"] if args.torch_threads != 1 else []
+        raise InvalidArgumentError(f"--backend rllib does not take {', '.join(names)}")
+    from .rllib_training import train
+
+    return train(
+        args.env_id,
+        args.out,
+        conf=args.conf,
+        seed=args.seed,
+        timesteps=args.timesteps,
+        env_kwargs=_env_kwargs(args.env_kwargs),
+        eval_every=args.eval_every,
+        eval_episodes=args.eval_episodes,
+        checkpoint_every=args.checkpoint_every,
+        resume=args.resume,
+        patience=args.patience,
+        stop_at=args.stop_at,
+        final=args.final,
+        num_env_runners=args.num_env_runners,
+        num_envs_per_env_runner=args.num_envs_per_env_runner,
+        address=args.address,
+        progress=not args.quiet,
+        command=["panda-rapier", *args.argv],
+    )
+
+
 def _run_train(args: argparse.Namespace) -> int:
     from .training import train
 
-    run = train(
+    if args.backend == "rllib":
+        run = _run_train_rllib(args)
+    else:
+        if (args.num_env_runners, args.num_envs_per_env_runner, args.address) != (2, None, None):
+            raise InvalidArgumentError(
+                "--num-env-runners, --num-envs-per-env-runner and --address are for --backend rllib"
+            )
+        run = _sb3_train(train, args)
+    return _report_run(args, run)
+
+
+def _sb3_train(train: Any, args: argparse.Namespace) -> dict[str, Any]:
+    return train(
         args.algo,
         args.env_id,
         args.out,
@@ -467,6 +543,9 @@ def _run_train(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         command=["panda-rapier", *args.argv],
     )
+
+
+def _report_run(args: argparse.Namespace, run: Mapping[str, Any]) -> int:
     minutes = run["wall_time_s"] / 60
     print(
         f"trained {args.algo} on {args.env_id}: {run['env_steps']:,} env steps in "

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 import shlex
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -42,7 +42,13 @@ def run_label(run: dict[str, Any]) -> str:
     options.update({str(k): v for k, v in dict(weights).items()})
     extra = ", ".join(f"{k}={v}" for k, v in sorted(options.items()))
     tuned = ", fine-tuned" if run.get("init_from") else ""
-    return f"{run.get('algo', '?')} {env} ({arm} arm{tuned}{', ' + extra if extra else ''})"
+    return f"{_trainer(run)} {env} ({arm} arm{tuned}{', ' + extra if extra else ''})"
+
+
+def _trainer(run: Mapping[str, Any]) -> str:
+    """The algorithm, and RLlib where RLlib trained it (``--backend rllib``)."""
+    algo = str(run.get("algo", "?"))
+    return f"{algo} (RLlib)" if run.get("backend") == "rllib" else algo
 
 
 def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) -> None:
@@ -209,7 +215,7 @@ def models_table(
                 source = (run.get("init_from") or {}).get("run") or {}
                 env_steps = run["env_steps"] + int(source.get("env_steps", 0))
                 wall_time = run["wall_time_s"] + float(source.get("wall_time_s", 0.0))
-                how = f"{run['algo']} on `{run['env_id'].split('/')[-1]}`"
+                how = f"{_trainer(run)} on `{run['env_id'].split('/')[-1]}`"
                 rows.append(
                     (f"`{model.name}`", how, options, f"{env_steps:,}",
                      f"{wall_time / 60:.1f}", summary)

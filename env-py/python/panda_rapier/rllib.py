@@ -37,6 +37,7 @@ the dense-reward ids only; TQC with HER on the sparse ids is stable-baselines3's
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from gymnasium.vector import AutoresetMode
@@ -66,8 +67,10 @@ __all__ = [
     "RLLIB_SEED_STRIDE",
     "EpisodeOutcomes",
     "configure_env_runners",
+    "fault_tolerance",
     "flatten_observations",
     "ppo_config",
+    "recipe_training",
     "rllib_seed",
     "runner_seed",
     "sac_config",
@@ -147,6 +150,35 @@ class EpisodeOutcomes(RLlibCallback):
             if key in info:
                 value = float(bool(info[key]))
                 metrics_logger.log_value(metric, value, reduce="mean", window=OUTCOME_WINDOW)
+
+    def on_train_result(self, *, algorithm: Any, result: dict[str, Any], **kwargs: Any) -> None:
+        """Adds ``result["fault_tolerance"]`` (:func:`fault_tolerance`)."""
+        result["fault_tolerance"] = fault_tolerance(algorithm)
+
+
+def fault_tolerance(algorithm: Any) -> dict[str, int]:
+    """What lost EnvRunners have cost ``algorithm`` so far: ``healthy_env_runners`` (of
+    ``env_runners``), ``env_runner_restarts`` (RLlib recreates a failed runner, on any node
+    with room, when ``restart_failed_env_runners`` is on, as by default), ``failures`` (restarts
+    plus runners still down) and ``env_steps_lost_at_most``: a runner that dies loses the
+    fragment it was sampling (``rollout_fragment_length x num_envs_per_env_runner`` env steps)
+    and nothing else. PPO then fills its train batch from the healthy runners, so every
+    iteration still trains ``train_batch_size_per_learner`` steps; what a failure costs is
+    that fragment's time."""
+    group = algorithm.env_runner_group
+    config = algorithm.config
+    runners = int(config.num_env_runners)
+    healthy = int(group.num_healthy_remote_workers()) if runners else 0
+    restarts = int(group.num_remote_worker_restarts()) if runners else 0
+    failures = restarts + (runners - healthy)
+    fragment = int(config.get_rollout_fragment_length(1)) * int(config.num_envs_per_env_runner)
+    return {
+        "env_runners": runners,
+        "healthy_env_runners": healthy,
+        "env_runner_restarts": restarts,
+        "failures": failures,
+        "env_steps_lost_at_most": failures * fragment,
+    }
 
 
 def flatten_observations(env: Any = None, spaces: Any = None, device: Any = None) -> Any:
@@ -232,34 +264,39 @@ def ppo_config(
     *,
     seed: int = 0,
     num_env_runners: int = 2,
-    num_envs_per_env_runner: int = 16,
+    num_envs_per_env_runner: int = 32,
     num_cpus_per_env_runner: int = 1,
     env_kwargs: Mapping[str, Any] | None = None,
+    conf: str | Path | None = None,
     **training: Any,
 ) -> PPOConfig:
-    """A ``PPOConfig`` for ``env_id`` on the native vector env (:func:`configure_env_runners`).
+    """A ``PPOConfig`` for ``env_id`` on the native vector env (:func:`configure_env_runners`)
+    that follows the stable-baselines3 recipe of ``panda-rapier train --algo ppo`` for it
+    (``conf``: a recipe file in rl-zoo3's format, default the package's ``hyperparams/ppo.yml``;
+    an id without a recipe there is a :class:`~panda_rapier.ConfigError`).
 
-    Defaults follow the stable-baselines3 recipe (``hyperparams/ppo.yml``): gamma 0.98, GAE
-    lambda 0.95, learning rate 3e-4, clip 0.2, no entropy bonus, gradient norm clipped at 0.5,
-    10 epochs of minibatches of 1,024 over 4,096 env steps per iteration, 2x256 ReLU
-    networks; on the dense pick-and-place ids the recipe's ``reward_weights={"release": 1.0}``
-    unless ``env_kwargs`` sets ``reward_weights``. ``training`` overrides any
-    ``PPOConfig.training`` argument (``train_batch_size_per_learner``, ``lr``, ...).
-    Without the recipe's observation normaliser and gripper exploration floor this config is
-    not the recipe's equal: see docs/guide/ray.md.
+    The recipe's settings map one to one (:func:`recipe_training`): ``n_envs x n_steps``
+    env steps per iteration (``train_batch_size_per_learner``; 64 x 64 = 4,096), minibatches
+    of ``batch_size``, ``n_epochs`` epochs, ``gamma``, ``gae_lambda``, the learning rate
+    (``lin_X``: a linear decay to 0 over ``n_timesteps``), ``clip_range``, ``ent_coef``,
+    ``vf_coef``, ``max_grad_norm`` (global norm), no value clipping, and ``target_kl`` as
+    RLlib's adaptive KL penalty aimed at it (none without one). Its network, observation
+    standardisation and gripper exploration floor are the module's
+    (:class:`~panda_rapier.rllib_recipe.RecipePPOTorchRLModule`, statistics fitted to 64
+    episodes of the scripted expert here, in the driver), its ``env_kwargs`` (the dense
+    pick-and-place's ``release`` term) the environment's unless ``env_kwargs`` sets them.
+    ``training`` overrides any ``PPOConfig.training`` argument.
     """
-    options = _recipe_env_kwargs(env_id, env_kwargs)
-    settings: dict[str, Any] = {
-        "gamma": 0.98,
-        "lambda_": 0.95,
-        "lr": 3e-4,
-        "clip_param": 0.2,
-        "entropy_coeff": 0.0,
-        "grad_clip": 0.5,
-        "num_epochs": 10,
-        "minibatch_size": 1024,
-        "train_batch_size_per_learner": 4096,
-    }
+    from ray.rllib.core.rl_module.rl_module import RLModuleSpec
+
+    from .rllib_recipe import RecipePPOTorchRLModule, recipe_model_config
+    from .training import load_recipe
+
+    if env_id not in ENV_IDS:
+        raise ConfigError(f"unknown environment id {env_id!r}; see panda_rapier.ENV_IDS")
+    recipe = load_recipe("ppo", env_id, conf)
+    options = {**dict(recipe.get("env_kwargs") or {}), **dict(env_kwargs or {})}
+    settings = recipe_training(recipe)
     settings.update(training)
     config = configure_env_runners(
         PPOConfig(),
@@ -270,7 +307,46 @@ def ppo_config(
         num_cpus_per_env_runner=num_cpus_per_env_runner,
         env_kwargs=options,
     )
-    return _with_networks(config.training(**settings), [256, 256])
+    model_config = recipe_model_config(recipe, env_config(env_id, **options))
+    config = config.training(**settings)
+    assert isinstance(config, PPOConfig)
+    return config.rl_module(
+        rl_module_spec=RLModuleSpec(module_class=RecipePPOTorchRLModule),
+        model_config=model_config,
+    )
+
+
+def recipe_training(recipe: Mapping[str, Any]) -> dict[str, Any]:
+    """``PPOConfig.training`` arguments of a stable-baselines3 PPO recipe (see
+    :func:`ppo_config`)."""
+    batch = int(recipe.get("n_envs", 1)) * int(recipe.get("n_steps", 2048))
+    rate = recipe.get("learning_rate", 3e-4)
+    if isinstance(rate, str) and rate.startswith("lin_"):
+        lr: Any = [[0, float(rate[4:])], [int(float(recipe["n_timesteps"])), 0.0]]
+    elif isinstance(rate, (int, float)):
+        lr = float(rate)
+    else:
+        raise ConfigError(f"learning_rate {rate!r}: a number or lin_X")
+    clip = recipe.get("clip_range", 0.2)
+    if not isinstance(clip, (int, float)):
+        raise ConfigError(f"clip_range {clip!r}: the RLlib port takes a number")
+    target_kl = recipe.get("target_kl")
+    return {
+        "train_batch_size_per_learner": batch,
+        "minibatch_size": int(recipe.get("batch_size", 64)),
+        "num_epochs": int(recipe.get("n_epochs", 10)),
+        "gamma": float(recipe.get("gamma", 0.99)),
+        "lambda_": float(recipe.get("gae_lambda", 0.95)),
+        "lr": lr,
+        "clip_param": float(clip),
+        "entropy_coeff": float(recipe.get("ent_coef", 0.0)),
+        "vf_loss_coeff": float(recipe.get("vf_coef", 0.5)),
+        "grad_clip": float(recipe.get("max_grad_norm", 0.5)),
+        "grad_clip_by": "global_norm",
+        "vf_clip_param": float("inf"),
+        "use_kl_loss": target_kl is not None,
+        **({"kl_target": float(target_kl)} if target_kl is not None else {}),
+    }
 
 
 def _off_policy(config: Any, env_id: str, training: Mapping[str, Any], **runners: Any) -> Any:

@@ -27,8 +27,11 @@ from .phases import PHASES
 
 __all__ = ["Variant", "benchmark_training", "format_training_report", "parse_variant"]
 
-#: A variant: its name and its overrides (recipe keys, and ``update_threads``).
+#: A variant: its name and its overrides (recipe keys, ``update_threads``, and ``backend``:
+#: ``sb3``, the default, or ``rllib``, ppo only: the same recipe trained by RLlib).
 Variant = tuple[str, dict[str, Any]]
+#: Variant keys that are not recipe keys.
+_RUN_KEYS = ("update_threads", "backend")
 
 
 def parse_variant(tokens: Sequence[str]) -> Variant:
@@ -88,21 +91,35 @@ def benchmark_training(
     with tempfile.TemporaryDirectory(prefix="bench-train-") as scratch:
         recipes: dict[str, tuple[Path, int | None]] = {}
         for name, overrides in variants:
-            recipe = {**base, **{k: v for k, v in overrides.items() if k != "update_threads"}}
+            recipe = {**base, **{k: v for k, v in overrides.items() if k not in _RUN_KEYS}}
             path = Path(scratch) / f"{name}.yml"
             path.write_text(yaml.safe_dump({env_id: recipe}))
             recipes[name] = (path, overrides.get("update_threads"))
+            backend = overrides.get("backend", "sb3")
+            if backend not in ("sb3", "rllib") or (backend == "rllib" and algo != "ppo"):
+                raise InvalidArgumentError(
+                    f"variant {name}: backend is sb3 or rllib (ppo only), got {backend!r}"
+                )
         for r in range(rounds):
             for k, name in enumerate(names):
                 if progress is not None:
                     progress(r * len(names) + k, total, f"round {r + 1}, {name}")
                 path, threads = recipes[name]
+                out = Path(scratch) / f"run-{r}-{name}"
                 try:
-                    run = train(
-                        algo, env_id, Path(scratch) / f"run-{r}-{name}", conf=path,
-                        timesteps=steps, update_threads=threads, eval_every=0,
-                        checkpoint_every=0, progress=False, say=lambda _: None,
-                    )  # fmt: skip
+                    if dict(variants)[name].get("backend") == "rllib":
+                        from .rllib_training import train as train_rllib
+
+                        run = train_rllib(
+                            env_id, out, conf=path, timesteps=steps, eval_every=0,
+                            checkpoint_every=0, progress=False, say=lambda _: None,
+                        )  # fmt: skip
+                    else:
+                        run = train(
+                            algo, env_id, out, conf=path, timesteps=steps,
+                            update_threads=threads, eval_every=0, checkpoint_every=0,
+                            progress=False, say=lambda _: None,
+                        )  # fmt: skip
                 except ConfigError as error:
                     raise ConfigError(f"variant {name}: {error}") from error
                 split = run["wall_time_split"]

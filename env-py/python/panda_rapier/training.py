@@ -394,6 +394,7 @@ def _sb3_callback(
     patience: int | None = None,
     stop_at: float | None = None,
     split: Callable[[], dict[str, float]] | None = None,
+    on_checkpoint: Callable[[Path], None] | None = None,
 ) -> Any:
     from stable_baselines3.common.callbacks import BaseCallback
 
@@ -424,7 +425,10 @@ def _sb3_callback(
             if split is not None:
                 saved["wall_time_split"] = split()
             checkpoint.save(self.model, out / "checkpoints", saved, recorder.run)
+            (out / "run.json").write_text(json.dumps(recorder.run, indent=2, default=str))
             recorder.checkpoint_time += time.perf_counter() - began
+            if on_checkpoint is not None:
+                on_checkpoint(out)
 
     return Periodic()
 
@@ -455,6 +459,7 @@ def train(
     patience: int | None = None,
     stop_at: float | None = None,
     final: str = "last",
+    on_checkpoint: Callable[[Path], None] | None = None,
 ) -> dict[str, Any]:
     """Trains ``algo`` on ``env_id`` with its recipe and writes the run to ``out`` (see the
     module's documentation); returns the run record. ``timesteps`` and ``n_envs`` override
@@ -470,7 +475,9 @@ def train(
     buffer this user's runs did not write). ``on_evaluation`` is called with each periodic
     evaluation's line of ``evaluations.jsonl`` (env steps, wall time, success and placed rate,
     mean return), after it is written and ``best.zip`` is saved: :mod:`panda_rapier.tuning`
-    reports them to Ray Tune. torch runs on ``torch_threads`` threads while environments step
+    reports them to Ray Tune; ``on_checkpoint`` with ``out`` after each checkpoint is written
+    (``out/checkpoints``, ``run.json`` and ``evaluations.jsonl`` are then a resumable whole).
+    torch runs on ``torch_threads`` threads while environments step
     and on ``update_threads`` (``None``: every core) while nothing else runs: PPO's updates and
     behaviour cloning's fits (:mod:`panda_rapier.threads`).
 
@@ -631,8 +638,9 @@ def train(
         }
 
     periodic = _sb3_callback(
-        recorder, eval_every or 0, checkpoint_every or 0, state, patience, stop_at, split
-    )
+        recorder, eval_every or 0, checkpoint_every or 0, state, patience, stop_at, split,
+        on_checkpoint,
+    )  # fmt: skip
     callbacks = [*_callbacks(recipe.get("callback")), periodic]
     from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 

@@ -34,11 +34,14 @@ Seeds are ``panda-rapier train``'s: trial seed ``s`` trains on the environment s
 from __future__ import annotations
 
 import inspect
+import shutil
+import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 try:
+    import ray
     from ray import tune
 except ImportError as error:  # pragma: no cover - exercised only without the extra
     raise ImportError(
@@ -160,15 +163,35 @@ def sb3_trainable(config: Mapping[str, Any]) -> None:
     recipe_file = trial_dir / "recipe.yml"
     recipe_file.write_text(yaml.safe_dump({env_id: _plain(recipe)}, sort_keys=False))
 
-    def report(line: dict[str, Any]) -> None:
+    run_dir = trial_dir / "run"
+    resume = _restore(run_dir)
+    _log_attempt(trial_dir, run_dir, resume)
+    pending: list[dict[str, Any]] = []
+
+    def metrics_of(line: Mapping[str, Any]) -> dict[str, Any]:
         low, high = line["success_ci95"]
         metrics = {key: line[key] for key in METRICS if key in line}
-        tune.report({**metrics, "success_ci95_low": low, "success_ci95_high": high})
+        return {**metrics, "success_ci95_low": low, "success_ci95_high": high}
+
+    def checkpointed(out: Path) -> None:
+        """Reports the evaluation just made with the checkpoint just written (the run
+        directory's resumable part), which Tune keeps in its storage."""
+        if not pending:
+            return
+        line = pending.pop()
+        with tempfile.TemporaryDirectory() as staging:
+            for name in _RESUMABLE:
+                source = out / name
+                if source.is_dir():
+                    shutil.copytree(source, Path(staging) / name)
+                elif source.is_file():
+                    shutil.copy2(source, Path(staging) / name)
+            tune.report(metrics_of(line), checkpoint=tune.Checkpoint.from_directory(staging))
 
     train(
         algo,
         env_id,
-        trial_dir / "run",
+        run_dir,
         conf=recipe_file,
         seed=int(settings["seed"]),
         timesteps=total,
@@ -177,11 +200,55 @@ def sb3_trainable(config: Mapping[str, Any]) -> None:
         env_kwargs=_plain(dict(settings["env_kwargs"] or {})),
         eval_every=eval_every,
         eval_episodes=int(settings["eval_episodes"]),
+        checkpoint_every=eval_every,
+        resume=resume,
         torch_threads=int(settings["torch_threads"]),
         progress=False,
         command=["ray.tune", "panda_rapier.tuning.sb3_trainable", str(trial_dir)],
-        on_evaluation=report,
+        on_evaluation=pending.append,
+        on_checkpoint=checkpointed,
     )
+    for line in pending:  # an evaluation after the last checkpoint (none in a plain run)
+        tune.report(metrics_of(line))
+
+
+#: What a trial's checkpoint holds of its run directory: what ``train(resume=True)`` reads.
+_RESUMABLE = ("checkpoints", "run.json", "evaluations.jsonl", "best.zip")
+
+
+def _restore(run_dir: Path) -> bool:
+    """Fills ``run_dir`` from the trial's last checkpoint when Tune retries a failed trial
+    (``tune.get_checkpoint()``); True if the run is to be resumed. A retried trial without
+    one starts over."""
+    checkpoint = tune.get_checkpoint()
+    if run_dir.exists():
+        shutil.rmtree(run_dir)
+    if checkpoint is None:
+        return False
+    with checkpoint.as_directory() as folder:
+        shutil.copytree(folder, run_dir)
+    return True
+
+
+def _log_attempt(trial_dir: Path, run_dir: Path, resumed: bool) -> None:
+    """Appends this attempt of the trial to ``TRIAL_DIR/attempts.jsonl``: the Ray node and
+    host it runs on, and the env steps it resumes from (0: from the start)."""
+    import json
+    import socket
+    import time
+
+    steps = 0
+    if resumed:
+        state = json.loads((run_dir / "checkpoints" / "state.json").read_text())
+        steps = int(state.get("num_timesteps", 0))
+    line = {
+        "node_id": ray.get_runtime_context().get_node_id(),
+        "host": socket.gethostname(),
+        "started": time.time(),
+        "resumed_from_env_steps": steps,
+    }
+    with (trial_dir / "attempts.jsonl").open("a") as file:
+        file.write(json.dumps(line) + "\n")
 
 
 def sb3_tuner(
@@ -201,6 +268,7 @@ def sb3_tuner(
     max_concurrent_trials: int | None = None,
     storage_path: str | Path | None = None,
     name: str | None = None,
+    max_failures: int = 2,
 ) -> tune.Tuner:
     """A ``ray.tune.Tuner`` over :func:`sb3_trainable`: one trial per seed in ``seeds`` (a
     grid) and per point of ``hyperparams``' search space (recipe overrides whose values may
@@ -212,6 +280,12 @@ def sb3_tuner(
     shared or cloud path) and ``name`` are Tune's ``RunConfig``'s. The sweep is checked
     (:func:`check_sweep`) before anything starts. ``tuner.fit()`` runs it and returns Tune's
     ``ResultGrid``.
+
+    Fault tolerance: a trial checkpoints its run at every evaluation (Tune keeps the
+    checkpoints in its storage); a trial that fails, for instance because its node died, is
+    started again up to ``max_failures`` times, on any node with room, and goes on from its
+    last checkpoint (``panda-rapier train --resume``). ``TRIAL_DIR/attempts.jsonl`` lists each
+    attempt's node and the env steps it resumed from.
     """
     check_sweep(algo, env_id, hyperparams, conf)
     seeds = list(seeds)
@@ -249,5 +323,6 @@ def sb3_tuner(
         run_config=tune.RunConfig(
             storage_path=None if storage_path is None else str(Path(storage_path).resolve()),
             name=name,
+            failure_config=tune.FailureConfig(max_failures=max_failures),
         ),
     )
