@@ -99,7 +99,7 @@ def main() -> None:
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
     torch.set_num_threads(os.cpu_count() or 1)  # the learner, while the runners wait
-    ray.init(num_cpus=os.cpu_count(), include_dashboard=False, log_to_driver=False)
+    ray.init(address="local", num_cpus=os.cpu_count(), include_dashboard=False, log_to_driver=False)
     rows = []
     grid = [(r, e) for r in args.runners for e in args.envs]
     for runners, envs in tqdm(grid, desc="configurations"):

@@ -4,6 +4,7 @@ in examples/, run as documented (tiny budgets)."""
 from __future__ import annotations
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -58,7 +59,10 @@ def test_documented_python_example_runs(where: str, block: str, tmp_path: Path) 
         pytest.importorskip("ray", reason=f"the Ray example {where} needs '.[rllib]'")
     script = tmp_path / "example.py"
     script.write_text(block)
-    subprocess.run([sys.executable, script], cwd=tmp_path, check=True, timeout=600)
+    # A Ray example's `ray.init(num_cpus=2)` starts its own Ray, as on a user's machine; it
+    # would join the simulated cluster another test file may be running (Ray's address file).
+    env = {**os.environ, "RAY_ADDRESS": "local"}
+    subprocess.run([sys.executable, script], cwd=tmp_path, check=True, timeout=600, env=env)
 
 
 def test_her_throughput_script_measures_the_recipe(tmp_path: Path) -> None:

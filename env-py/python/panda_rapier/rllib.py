@@ -27,7 +27,13 @@ change further with RLlib's own methods. Each sets the same environment side (se
   ``achieved_goal``, ``desired_goal``, ``observation``, as the native flat layout;
 - seeds: see :func:`runner_seed`;
 - :class:`EpisodeOutcomes` adds ``success_rate`` and ``placed_rate`` to the EnvRunners'
-  metrics (``result["env_runners"]``).
+  metrics (``result["env_runners"]``), and ``result["fault_tolerance"]``
+  (:func:`fault_tolerance`: runners lost and recreated, env steps lost).
+
+:func:`ppo_config` is the stable-baselines3 PPO recipe of ``panda-rapier train`` (the same
+file, every setting mapped, its observation standardisation and gripper exploration floor in
+:class:`~panda_rapier.rllib_recipe.RecipePPOTorchRLModule`); ``panda-rapier train --backend
+rllib`` trains it (:mod:`panda_rapier.rllib_training`).
 
 RLlib has no hindsight experience replay, so :func:`sac_config` and :func:`tqc_config` take
 the dense-reward ids only; TQC with HER on the sparse ids is stable-baselines3's recipe

@@ -118,7 +118,12 @@ def train(
         if address is not None:
             ray.init(address=address)
         else:
-            ray.init(num_cpus=_cpu_count(), include_dashboard=False, log_to_driver=False)
+            ray.init(
+                address="local",  # a new Ray here, not one found running (--address auto)
+                num_cpus=_cpu_count(),
+                include_dashboard=False,
+                log_to_driver=False,
+            )
     out.mkdir(parents=True, exist_ok=True)
     run: dict[str, Any] = {
         "algo": "ppo",
