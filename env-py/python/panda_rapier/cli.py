@@ -485,23 +485,30 @@ def _run_train_rllib(args: argparse.Namespace) -> dict[str, Any]:
     return train(
         args.env_id,
         args.out,
-        conf=args.conf,
-        seed=args.seed,
-        timesteps=args.timesteps,
-        env_kwargs=_env_kwargs(args.env_kwargs),
-        eval_every=args.eval_every,
-        eval_episodes=args.eval_episodes,
-        checkpoint_every=args.checkpoint_every,
-        resume=args.resume,
-        patience=args.patience,
-        stop_at=args.stop_at,
-        final=args.final,
+        **_train_options(args),
         num_env_runners=args.num_env_runners,
         num_envs_per_env_runner=args.num_envs_per_env_runner,
         address=args.address,
-        progress=not args.quiet,
-        command=["panda-rapier", *args.argv],
     )
+
+
+def _train_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The ``train`` options both backends take."""
+    return {
+        "conf": args.conf,
+        "seed": args.seed,
+        "timesteps": args.timesteps,
+        "env_kwargs": _env_kwargs(args.env_kwargs),
+        "eval_every": args.eval_every,
+        "eval_episodes": args.eval_episodes,
+        "checkpoint_every": args.checkpoint_every,
+        "resume": args.resume,
+        "patience": args.patience,
+        "stop_at": args.stop_at,
+        "final": args.final,
+        "progress": not args.quiet,
+        "command": ["panda-rapier", *args.argv],
+    }
 
 
 def _run_train(args: argparse.Namespace) -> int:
@@ -514,35 +521,19 @@ def _run_train(args: argparse.Namespace) -> int:
             raise InvalidArgumentError(
                 "--num-env-runners, --num-envs-per-env-runner and --address are for --backend rllib"
             )
-        run = _sb3_train(train, args)
+        run = train(
+            args.algo,
+            args.env_id,
+            args.out,
+            **_train_options(args),
+            n_envs=args.n_envs,
+            num_threads=args.threads,
+            init_from=args.init_from,
+            trust=args.trust_model_file,
+            torch_threads=args.torch_threads,
+            update_threads=args.update_threads,
+        )
     return _report_run(args, run)
-
-
-def _sb3_train(train: Any, args: argparse.Namespace) -> dict[str, Any]:
-    return train(
-        args.algo,
-        args.env_id,
-        args.out,
-        conf=args.conf,
-        seed=args.seed,
-        timesteps=args.timesteps,
-        n_envs=args.n_envs,
-        num_threads=args.threads,
-        env_kwargs=_env_kwargs(args.env_kwargs),
-        eval_every=args.eval_every,
-        eval_episodes=args.eval_episodes,
-        checkpoint_every=args.checkpoint_every,
-        resume=args.resume,
-        init_from=args.init_from,
-        trust=args.trust_model_file,
-        torch_threads=args.torch_threads,
-        update_threads=args.update_threads,
-        patience=args.patience,
-        stop_at=args.stop_at,
-        final=args.final,
-        progress=not args.quiet,
-        command=["panda-rapier", *args.argv],
-    )
 
 
 def _report_run(args: argparse.Namespace, run: Mapping[str, Any]) -> int:

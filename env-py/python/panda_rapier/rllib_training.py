@@ -12,8 +12,6 @@ measures it against stable-baselines3 (``--variant rllib backend=rllib``).
 from __future__ import annotations
 
 import json
-import platform
-import sys
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -22,7 +20,7 @@ from typing import Any
 import ray
 import torch
 
-from .errors import ConfigError, InvalidArgumentError
+from .errors import ConfigError
 from .phases import PHASES
 from .rllib_recipe import as_sb3, trained_module
 
@@ -86,13 +84,15 @@ def train(
     from .registration import ENV_IDS, env_config
     from .rllib import ppo_config
     from .training import (
-        VALIDATION_FIRST_SEED,
         _check_stopping,
         _cpu_count,
         _Recorder,
+        due,
+        finish_run,
         load_recipe,
+        open_run,
+        run_record,
         stop_reason,
-        versions,
     )
 
     if env_id not in ENV_IDS:
@@ -104,12 +104,9 @@ def train(
     torch.set_num_threads(_cpu_count())
     out = Path(out)
     state_file = out / "checkpoints" / "state.json"
-    if resume and not state_file.is_file():
-        raise InvalidArgumentError(f"nothing to resume: {state_file} does not exist")
-    if not resume and (out / "run.json").exists():
-        raise InvalidArgumentError(f"{out} already holds a run: pass --resume or another --out")
-    recipe = load_recipe("ppo", env_id, conf)
-    options = {**dict(recipe.get("env_kwargs") or {}), **dict(env_kwargs or {})}
+    previous, recipe, options = open_run(
+        out, "ppo", env_id, resume, load_recipe("ppo", env_id, conf), env_kwargs
+    )
     config = env_config(env_id, **options)
     total = int(timesteps if timesteps is not None else recipe.get("n_timesteps", 1_000_000))
     runners = max(1, num_env_runners)
@@ -124,29 +121,18 @@ def train(
                 include_dashboard=False,
                 log_to_driver=False,
             )
-    out.mkdir(parents=True, exist_ok=True)
-    run: dict[str, Any] = {
-        "algo": "ppo",
-        "backend": "rllib",
-        "saved_algo": "ppo",
-        "env_id": env_id,
-        "env_kwargs": options,
-        "config": config,
-        "recipe": dict(recipe),
-        "recipe_file": str(conf) if conf is not None else "panda_rapier/hyperparams/ppo.yml",
-        "seed": int(seed),
-        "validation_first_seed": VALIDATION_FIRST_SEED,
-        "num_env_runners": num_env_runners,
-        "num_envs_per_env_runner": per_runner,
-        "num_cpus_per_env_runner": num_cpus_per_env_runner,
-        "torch_threads": 1,
-        "update_threads": _cpu_count(),
-        "command": command if command is not None else sys.argv,
-        "versions": {**versions(), "ray": ray.__version__},
-        "machine": {"cpus": _cpu_count(), "platform": platform.platform()},
-        "n_timesteps": total,
-        "final": final,
-    }
+    run = run_record("ppo", env_id, options, config, recipe, conf, seed, command, previous)
+    run.update(
+        backend="rllib",
+        num_env_runners=num_env_runners,
+        num_envs_per_env_runner=per_runner,
+        num_cpus_per_env_runner=num_cpus_per_env_runner,
+        torch_threads=1,
+        update_threads=_cpu_count(),
+        n_timesteps=total,
+        final=final,
+    )
+    run["versions"]["ray"] = ray.__version__
     state: dict[str, Any] = {
         "next_eval": eval_every or 0,
         "next_checkpoint": checkpoint_every or 0,
@@ -154,9 +140,6 @@ def train(
         "env_steps": 0,
     }
     if resume:
-        previous = json.loads((out / "run.json").read_text())
-        run["command"] = previous.get("command", run["command"])
-        run["resumed_with"] = [*previous.get("resumed_with", []), command or sys.argv]
         state.update(json.loads(state_file.read_text()))
     algo = ppo_config(
         env_id,
@@ -207,19 +190,15 @@ def train(
                     ret=f"{float(metrics.get('episode_return_mean', 0.0)):.1f}",
                 )
             steps = state["env_steps"] = now
-            if eval_every and steps >= state["next_eval"]:
+            if due(state, "next_eval", eval_every, steps):
                 model = as_sb3(trained_module(algo), recipe, env_id, options)
                 line = recorder.evaluate(model, steps)
-                while state["next_eval"] <= steps:
-                    state["next_eval"] += eval_every
                 reason = stop_reason(recorder, line, patience, stop_at)
                 if reason is not None:
                     run["stopped_early"] = {"env_steps": steps, "reason": reason}
                     say(f"stopping: {reason}")
                     break
-            if checkpoint_every and steps >= state["next_checkpoint"]:
-                while state["next_checkpoint"] <= steps:
-                    state["next_checkpoint"] += checkpoint_every
+            if due(state, "next_checkpoint", checkpoint_every, steps):
                 save_checkpoint()
         if bar is not None:
             bar.close()
@@ -233,13 +212,4 @@ def train(
         save_checkpoint()
     finally:
         algo.stop()
-    from .model_file import read_run_info, save_model
-    from .training import _load_weights
-
-    run["final_weights"] = run.get("last_evaluation")
-    if final == "best" and (out / "best.zip").is_file():
-        _load_weights(model, out / "best.zip")
-        run["final_weights"] = (read_run_info(out / "best.zip") or {}).get("evaluation")
-    save_model(model, out / "model.zip", run)
-    (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
-    return run
+    return finish_run(model, out, run, final)

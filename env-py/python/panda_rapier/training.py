@@ -403,18 +403,14 @@ def _sb3_callback(
     class Periodic(BaseCallback):
         def _on_step(self) -> bool:
             steps = self.num_timesteps
-            if eval_every and steps >= state["next_eval"]:
+            if due(state, "next_eval", eval_every, steps):
                 line = recorder.evaluate(self.model, steps, self.logger)
-                while state["next_eval"] <= steps:
-                    state["next_eval"] += eval_every
                 reason = stop_reason(recorder, line, patience, stop_at)
                 if reason is not None:
                     recorder.run["stopped_early"] = {"env_steps": int(steps), "reason": reason}
                     recorder.say(f"stopping: {reason}")
                     return False
-            if checkpoint_every and steps >= state["next_checkpoint"]:
-                while state["next_checkpoint"] <= steps:
-                    state["next_checkpoint"] += checkpoint_every
+            if due(state, "next_checkpoint", checkpoint_every, steps):
                 self.save_checkpoint()
             return True
 
@@ -499,48 +495,17 @@ def train(
     th.set_num_threads(torch_threads)
     out = Path(out)
     recipe = load_recipe(algo, env_id, conf)
-    options = {**dict(recipe.get("env_kwargs") or {}), **dict(env_kwargs or {})}
-    config = env_config(env_id, **split_options(options)[0])
     train_seed = TRAIN_FIRST_SEED + 1_000_000 * int(seed)
     state_file = out / "checkpoints" / "state.json"
-    if resume:
-        if not state_file.is_file():
-            raise InvalidArgumentError(f"nothing to resume: {state_file} does not exist")
-        previous = json.loads((out / "run.json").read_text())
-        if previous.get("algo") != algo or previous.get("env_id") != env_id:
-            raise InvalidArgumentError(
-                f"{out} holds a {previous.get('algo')} run on {previous.get('env_id')}"
-            )
-        # A resumed run goes on with the recipe and options it recorded.
-        if isinstance(previous.get("recipe"), dict):
-            recipe = previous["recipe"]
-        recorded = previous.get("env_kwargs")
-        options = {**(recorded if isinstance(recorded, dict) else {}), **dict(env_kwargs or {})}
-        config = env_config(env_id, **split_options(options)[0])
-    elif (out / "run.json").exists():
-        raise InvalidArgumentError(f"{out} already holds a run: pass --resume or another --out")
+    previous, recipe, options = open_run(out, algo, env_id, resume, recipe, env_kwargs)
+    config = env_config(env_id, **split_options(options)[0])
     observation = split_options(options)[1]
-    out.mkdir(parents=True, exist_ok=True)
-    run: dict[str, Any] = {
-        "algo": algo,
-        "saved_algo": "ppo" if algo == "bc" else algo,
-        "env_id": env_id,
-        "env_kwargs": options,
-        "config": config,
-        "recipe": dict(recipe),
-        "recipe_file": str(conf) if conf is not None else f"panda_rapier/hyperparams/{algo}.yml",
-        "seed": int(seed),
-        "train_first_seed": train_seed,
-        "validation_first_seed": VALIDATION_FIRST_SEED,
-        "torch_threads": torch_threads,
-        "update_threads": update_threads if update_threads is not None else all_cores(),
-        "command": command if command is not None else sys.argv,
-        "versions": versions(),
-        "machine": {"cpus": _cpu_count(), "platform": platform.platform()},
-    }
-    if resume:
-        run["command"] = previous.get("command", run["command"])
-        run["resumed_with"] = [*previous.get("resumed_with", []), command or sys.argv]
+    run = run_record(algo, env_id, options, config, recipe, conf, seed, command, previous)
+    run.update(
+        train_first_seed=train_seed,
+        torch_threads=torch_threads,
+        update_threads=update_threads if update_threads is not None else all_cores(),
+    )
     if init_from is not None:
         if resume:
             raise InvalidArgumentError("--init-from starts a new run; it cannot be resumed into")
@@ -665,6 +630,89 @@ def train(
         recorder.evaluate(model, int(model.num_timesteps))
     if remaining > 0:
         periodic.save_checkpoint()  # a later --resume with more --timesteps goes on
+    return finish_run(model, out, run, final)
+
+
+def open_run(
+    out: Path,
+    algo: str,
+    env_id: str,
+    resume: bool,
+    recipe: Mapping[str, Any],
+    env_kwargs: Mapping[str, Any] | None,
+) -> tuple[dict[str, Any] | None, dict[str, Any], dict[str, Any]]:
+    """Checks that ``out`` can take the run (a checkpoint to resume from, or no run yet) and
+    creates it; returns the earlier run record (``None`` for a new run), the recipe and the
+    environment options the run trains with: a resumed run goes on with the ones it recorded,
+    ``env_kwargs`` added to the options."""
+    state_file = out / "checkpoints" / "state.json"
+    previous = None
+    if resume:
+        if not state_file.is_file():
+            raise InvalidArgumentError(f"nothing to resume: {state_file} does not exist")
+        previous = json.loads((out / "run.json").read_text())
+        if previous.get("algo") != algo or previous.get("env_id") != env_id:
+            raise InvalidArgumentError(
+                f"{out} holds a {previous.get('algo')} run on {previous.get('env_id')}"
+            )
+        if isinstance(previous.get("recipe"), dict):
+            recipe = previous["recipe"]
+        recorded = previous.get("env_kwargs")
+        base = recorded if isinstance(recorded, dict) else {}
+    elif (out / "run.json").exists():
+        raise InvalidArgumentError(f"{out} already holds a run: pass --resume or another --out")
+    else:
+        base = dict(recipe.get("env_kwargs") or {})
+    out.mkdir(parents=True, exist_ok=True)
+    return previous, dict(recipe), {**base, **dict(env_kwargs or {})}
+
+
+def run_record(
+    algo: str,
+    env_id: str,
+    options: Mapping[str, Any],
+    config: Mapping[str, Any],
+    recipe: Mapping[str, Any],
+    conf: str | Path | None,
+    seed: int,
+    command: list[str] | None,
+    previous: Mapping[str, Any] | None,
+) -> dict[str, Any]:
+    """The run record's entries every trainer writes (a resumed run keeps its first command
+    and lists the later ones in ``resumed_with``)."""
+    run: dict[str, Any] = {
+        "algo": algo,
+        "saved_algo": "ppo" if algo == "bc" else algo,
+        "env_id": env_id,
+        "env_kwargs": dict(options),
+        "config": dict(config),
+        "recipe": dict(recipe),
+        "recipe_file": str(conf) if conf is not None else f"panda_rapier/hyperparams/{algo}.yml",
+        "seed": int(seed),
+        "validation_first_seed": VALIDATION_FIRST_SEED,
+        "command": command if command is not None else sys.argv,
+        "versions": versions(),
+        "machine": {"cpus": _cpu_count(), "platform": platform.platform()},
+    }
+    if previous is not None:
+        run["command"] = previous.get("command", run["command"])
+        run["resumed_with"] = [*previous.get("resumed_with", []), command or sys.argv]
+    return run
+
+
+def due(state: dict[str, Any], key: str, every: int | None, steps: int) -> bool:
+    """Whether the periodic ``key`` (``next_eval``, ``next_checkpoint``) is due at ``steps``;
+    if so, moves it past ``steps`` by whole periods."""
+    if not every or steps < state[key]:
+        return False
+    while state[key] <= steps:
+        state[key] += every
+    return True
+
+
+def finish_run(model: Any, out: Path, run: dict[str, Any], final: str) -> dict[str, Any]:
+    """Writes ``model.zip`` (the weights training ended with, or with ``final="best"`` the
+    best evaluation's) and ``run.json``; returns the run record."""
     run["final_weights"] = run.get("last_evaluation")
     if final == "best" and (out / "best.zip").is_file():
         _load_weights(model, out / "best.zip")
