@@ -380,3 +380,81 @@ def test_bad_visual_randomization_is_a_config_error(value: Any) -> None:
         gym.make(ENV_ID, obs_mode="rgb", visual_randomization=value)
     with pytest.raises(ConfigError, match="visual_randomization"):
         gym.make(ENV_ID, visual_randomization=True)  # state observations have no pictures
+
+
+@pytest.mark.parametrize("env_id", ["panda_rapier/PickAndPlace-v0", "panda_rapier/StackJoints-v0"])
+def test_flat_observations_are_the_state_dict_flattened(env_id: str) -> None:
+    """``obs_mode="flat"``: the state dict's values in one vector, in Gymnasium's flattening
+    order, from the single, vector and stable-baselines3 environments alike (final
+    observations too); it passes Gymnasium's checker."""
+    from panda_rapier.sb3 import make_vec_env
+
+    state, flat = gym.make(env_id), gym.make(env_id, obs_mode="flat")
+    assert flat.observation_space == gym.spaces.flatten_space(state.observation_space)
+    rng = np.random.default_rng(0)
+    obs_state, _ = state.reset(seed=5)
+    obs_flat, _ = flat.reset(seed=5)
+    for _ in range(4):
+        assert obs_flat.dtype == np.float32 and obs_flat in flat.observation_space
+        np.testing.assert_array_equal(
+            obs_flat, gym.spaces.flatten(state.observation_space, obs_state)
+        )
+        action = rng.uniform(-1, 1, state.action_space.shape).astype(np.float32)
+        obs_state, *_ = state.step(action)
+        obs_flat, *_ = flat.step(action)
+    check_env(flat.unwrapped, skip_render_check=True)
+    state.close()
+    flat.close()
+
+    def concatenated(obs: dict[str, np.ndarray]) -> np.ndarray:
+        return np.concatenate([obs[key] for key in sorted(obs)], axis=-1)
+
+    short = env_config(env_id, max_episode_steps=3)
+    vec_state = PandaVectorEnv(3, autoreset_mode="same_step", **short)
+    vec_flat = PandaVectorEnv(3, autoreset_mode="same_step", obs_mode="flat", **short)
+    assert vec_flat.single_observation_space == flat.observation_space
+    a, _ = vec_state.reset(seed=2)
+    b, _ = vec_flat.reset(seed=2)
+    np.testing.assert_array_equal(b, concatenated(a))
+    for _ in range(3):
+        actions = rng.uniform(-1, 1, vec_state.action_space.shape).astype(np.float32)
+        a, *_, info_a = vec_state.step(actions)
+        b, *_, info_b = vec_flat.step(actions)
+        np.testing.assert_array_equal(b, concatenated(a))
+    assert info_b["_final_obs"].all()
+    for i in range(3):
+        np.testing.assert_array_equal(info_b["final_obs"][i], concatenated(info_a["final_obs"][i]))
+    vec_state.close()
+    vec_flat.close()
+
+    sb3_state = make_vec_env(env_id, n_envs=2, seed=4)
+    sb3_flat = make_vec_env(env_id, n_envs=2, seed=4, obs_mode="flat")
+    np.testing.assert_array_equal(sb3_flat.reset(), concatenated(sb3_state.reset()))
+    sb3_state.close()
+    sb3_flat.close()
+    with pytest.raises(ConfigError, match="cameras"):
+        gym.make(env_id, obs_mode="flat", cameras={"rgb": {}})
+
+
+def test_a_model_on_flat_observations_evaluates_in_flat_mode(tmp_path: Path) -> None:
+    """A stable-baselines3 model trained on ``obs_mode="flat"`` is evaluated on flat
+    observations: its space says so (``model_observation``), and ``panda-rapier eval``'s
+    resolver builds that environment."""
+    sb3 = pytest.importorskip("stable_baselines3")
+    from panda_rapier.evaluation import evaluate
+    from panda_rapier.inference import resolve_policy
+    from panda_rapier.model_file import model_observation
+    from panda_rapier.sb3 import make_vec_env
+
+    env = make_vec_env(ENV_ID, n_envs=2, seed=0, obs_mode="flat")
+    assert model_observation(env.observation_space) == {"obs_mode": "flat"}
+    model = sb3.PPO("MlpPolicy", env, n_steps=8, batch_size=16, n_epochs=1, seed=0, device="cpu")
+    model.learn(16)
+    model.save(tmp_path / "flat.zip")
+    env.close()
+    for inference in ("torch", "auto"):
+        resolved = resolve_policy(tmp_path / "flat.zip", ENV_ID, inference=inference, trust=True)
+        if inference == "torch":
+            assert resolved.observation == {"obs_mode": "flat"}
+        report = evaluate(resolved.policy, resolved.config, 3, num_envs=2, **resolved.observation)
+        assert len(report.episodes) == 3

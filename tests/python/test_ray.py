@@ -34,10 +34,13 @@ from panda_rapier.rllib import (
     RLLIB_FIRST_SEED,
     EpisodeOutcomes,
     configure_env_runners,
+    flat_observations_to_module,
+    flatten_observations,
     ppo_config,
     rllib_seed,
     runner_seed,
     sac_config,
+    sampled_actions_to_env,
     tqc_config,
 )
 from panda_rapier.tuning import METRICS, check_sweep, sb3_trainable, sb3_tuner
@@ -133,6 +136,7 @@ class TestPPO:
                 "num_envs": env.num_envs,
                 "num_threads": env.num_threads,
                 "autoreset": env.metadata["autoreset_mode"],
+                "observation_space": env.single_observation_space,
                 "release": env.config["reward_weights"]["release"],
             }
 
@@ -142,11 +146,12 @@ class TestPPO:
             assert d["type"] is PandaVectorEnv
             assert d["num_envs"] == NUM_ENVS and d["num_threads"] == 1
             assert d["autoreset"] == AutoresetMode.NEXT_STEP and d["release"] == 1.0
+            assert d["observation_space"].shape == (47,)  # obs_mode="flat"
 
     def test_runners_draw_distinct_reproducible_streams(self, ppo: Any) -> None:
         def first_observations(runner: Any) -> tuple[int, np.ndarray]:
-            """Runner ``k``'s first observations after building its env afresh (flattened by the
-            connector), one row per environment. (Nested: Ray pickles it by value.)"""
+            """Runner ``k``'s first observations after building its env afresh (the env's flat
+            observations), one row per environment. (Nested: Ray pickles it by value.)"""
             runner.make_env()
             episodes = runner.sample(num_timesteps=runner.num_envs, random_actions=True)
             return runner.worker_index, np.stack([e.get_observations(0) for e in episodes])
@@ -238,6 +243,57 @@ def test_checkpoints_restore_and_train_on(ray_session: None, tmp_path: Path) -> 
     assert result["training_iteration"] == 2 and result["num_env_steps_sampled_lifetime"] == 280
 
 
+def test_batched_connectors_sample_what_rllib_s_default_pipeline_samples(
+    ray_session: None,
+) -> None:
+    """The flat-observation connectors (``FlatObservationsToModule``, ``SampledActionsToEnv``)
+    replace RLlib's default env-to-module and module-to-env pipelines without changing a bit
+    of what is sampled: observations, actions, their log-probabilities and distribution
+    inputs, rewards; exploring, and acting deterministically."""
+
+    def sample(default_pipelines: bool) -> list[list[np.ndarray]]:
+        config = ppo_config(DENSE, seed=SEED, num_env_runners=0, num_envs_per_env_runner=3)
+        if default_pipelines:
+            config = config.env_runners(
+                env_to_module_connector=None,
+                module_to_env_connector=None,
+                add_default_connectors_to_env_to_module_pipeline=True,
+                add_default_connectors_to_module_to_env_pipeline=True,
+            )
+        algo = config.build_algo()
+        runner = algo.env_runner
+        episodes = runner.sample(num_timesteps=150) + runner.sample(num_timesteps=150)
+        episodes += runner.sample(num_episodes=3, explore=False)
+        algo.stop()
+        return [
+            [np.asarray(column) for column in (
+                e.get_observations(), e.get_actions(), e.get_rewards(),
+                e.get_extra_model_outputs("action_logp"),
+                e.get_extra_model_outputs("action_dist_inputs"),
+            )]
+            for e in episodes
+        ]  # fmt: skip
+
+    batched, default = sample(False), sample(True)
+    assert len(batched) == len(default) >= 9
+    for ours, theirs in zip(batched, default, strict=True):
+        for a, b in zip(ours, theirs, strict=True):
+            assert a.dtype == b.dtype
+            np.testing.assert_array_equal(a, b)
+
+
+def test_batched_connectors_refuse_recurrent_modules() -> None:
+    from panda_rapier.rllib import FlatObservationsToModule, SampledActionsToEnv
+
+    class Recurrent:
+        def is_stateful(self) -> bool:
+            return True
+
+    for connector in (FlatObservationsToModule(), SampledActionsToEnv()):
+        with pytest.raises(ConfigError, match="stateless"):
+            connector(rl_module=Recurrent(), batch={}, episodes=[])
+
+
 def test_episode_outcomes_are_logged_as_rates() -> None:
     logger = MetricsLogger()
     for success, placed in [(True, True), (False, True), (False, False), (True, True)]:
@@ -300,9 +356,21 @@ def test_configs_set_the_env_runner_side() -> None:
     assert config.env == "panda_rapier:panda_rapier/ReachJointsDense-v0"
     assert config.env_config == {
         "control_frequency": 50,
+        "obs_mode": "flat",
         "num_threads": 2,
         "autoreset_mode": "next_step",
     }
+    # The state comes flat from the env, goes to the module and back by our two batched
+    # connectors in place of RLlib's defaults, and the env clips actions itself.
+    assert config._env_to_module_connector is flat_observations_to_module
+    assert config._module_to_env_connector is sampled_actions_to_env
+    assert not config.add_default_connectors_to_env_to_module_pipeline
+    assert not config.add_default_connectors_to_module_to_env_pipeline
+    assert not config.normalize_actions and not config.clip_actions
+    images = configure_env_runners(PPOConfig(), DENSE, env_kwargs={"obs_mode": "state+rgb"})
+    assert images.env_config["obs_mode"] == "state+rgb"
+    assert images._env_to_module_connector is flatten_observations
+    assert images.add_default_connectors_to_env_to_module_pipeline
     assert config.gym_env_vectorize_mode == "vector_entry_point"
     assert (config.num_env_runners, config.num_envs_per_env_runner) == (3, 8)
     assert config.num_cpus_per_env_runner == 2 and config.seed == rllib_seed(2)

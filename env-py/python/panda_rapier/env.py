@@ -95,7 +95,10 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     ``Dict(achieved_goal: (3,), desired_goal: (3,), observation: (41,))``, float32: the cube's
     position, the goal, and joint positions (9) and velocities (9), TCP position and velocity,
     gripper width, cube position, orientation (quaternion xyzw, w >= 0), linear and angular
-    velocity, and the cube relative to the TCP.
+    velocity, and the cube relative to the TCP. ``obs_mode="flat"``: the same values as one
+    ``Box(-1000, 1000, (47,), float32)`` vector (for this task) in that key order (what
+    ``gymnasium.wrappers.FlattenObservation`` makes of the dict, without its copy per step),
+    for learners that take plain vectors, such as RLlib's default encoders.
 
     ## Rewards
     ``reward_type="sparse"`` (default): -1 until the cube is within ``success_threshold``

@@ -294,12 +294,14 @@ def _require_trust(path: Path, trust: bool) -> None:
 
 
 def model_observation(space: Any) -> dict[str, Any]:
-    """The image options (``obs_mode``, ``image_size``) of a model trained on the observation
-    ``space`` (as :func:`saved_spaces` reads it): none for state observations. Images under keys
-    other than the default camera's ``rgb`` need their cameras, which only the Python API
-    takes."""
+    """The observation options (``obs_mode``, ``image_size``) of a model trained on the
+    observation ``space`` (as :func:`saved_spaces` reads it): none for state dicts,
+    ``obs_mode="flat"`` for a float vector. Images under keys other than the default camera's
+    ``rgb`` need their cameras, which only the Python API takes."""
     from gymnasium import spaces
 
+    if isinstance(space, spaces.Box) and space.dtype == np.float32 and len(space.shape) == 1:
+        return {"obs_mode": "flat"}
     if not isinstance(space, spaces.Dict):
         return {}
     images = {

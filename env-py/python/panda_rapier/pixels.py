@@ -24,8 +24,12 @@ from . import _common, _native
 from .errors import ConfigError
 
 #: The observation modes: the state vector (default), camera images with the goals, both, or
-#: camera images with the robot's own state and the commanded goal only (no object state).
-OBS_MODES = ("state", "rgb", "state+rgb", "proprio+rgb")
+#: camera images with the robot's own state and the commanded goal only (no object state); and
+#: ``"flat"``: the state dict's entries in one float32 vector (``achieved_goal``,
+#: ``desired_goal``, ``observation``, as ``gymnasium.wrappers.FlattenObservation`` lays out
+#: the ``"state"`` dict), for learners that take a plain ``Box`` (RLlib's default encoders),
+#: without a flattening step per observation.
+OBS_MODES = ("state", "rgb", "state+rgb", "proprio+rgb", "flat")
 
 #: The key of the robot's own state in ``"proprio+rgb"`` observations.
 PROPRIOCEPTION_KEY = "proprioception"
@@ -151,8 +155,13 @@ class ObservationSpec:
         """Whether observations carry images."""
         return bool(self.image_keys)
 
-    def space(self) -> spaces.Dict:
-        """The observation space of one environment."""
+    def space(self) -> spaces.Dict | spaces.Box:
+        """The observation space of one environment (a ``Box`` in ``"flat"`` mode, else a
+        ``Dict``)."""
+        if self.mode == "flat":
+            flat = spaces.flatten_space(_common.observation_space(self.schema))
+            assert isinstance(flat, spaces.Box)  # a Dict of Boxes flattens to one Box
+            return flat
         state = dict(_common.observation_space(self.schema).spaces)
         if PROPRIOCEPTION_KEY in self.state_keys:
             robot = self._proprioception
@@ -167,9 +176,12 @@ class ObservationSpec:
             entries[key] = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
         return spaces.Dict(entries)
 
-    def assemble(self, flat: np.ndarray, images: np.ndarray | None) -> dict[str, np.ndarray]:
+    def assemble(self, flat: np.ndarray, images: np.ndarray | None) -> Any:
         """The observation dict from the flat state (``(d,)`` or ``(n, d)``) and the native
-        image bytes (``(bytes,)`` or ``(n, bytes)``; ``None`` without cameras)."""
+        image bytes (``(bytes,)`` or ``(n, bytes)``; ``None`` without cameras); in ``"flat"``
+        mode the flat state itself."""
+        if self.mode == "flat":
+            return flat
         parts = _common.split_observation(flat, self.schema)
         if PROPRIOCEPTION_KEY in self.state_keys:
             parts[PROPRIOCEPTION_KEY] = np.ascontiguousarray(flat[..., self._proprioception])
@@ -183,8 +195,11 @@ class ObservationSpec:
                 start += size
         return obs
 
-    def row(self, obs: Mapping[str, np.ndarray], i: int | np.integer) -> dict[str, np.ndarray]:
-        """Environment ``i``'s entries of a batched observation dict."""
+    def row(self, obs: Any, i: int | np.integer) -> Any:
+        """Environment ``i``'s entries of a batched observation (dict, or array in ``"flat"``
+        mode)."""
+        if self.mode == "flat":
+            return obs[i]
         return {key: value[i] for key, value in obs.items()}
 
 
@@ -225,13 +240,13 @@ def observation_spec(
     :class:`~panda_rapier.ConfigError`."""
     if obs_mode not in OBS_MODES:
         raise ConfigError(f"obs_mode must be one of {OBS_MODES}, got {obs_mode!r}")
-    if obs_mode == "state":
+    if obs_mode in ("state", "flat"):
         if cameras is not None or visual_randomization not in (None, False):
             raise ConfigError(
                 "cameras and visual_randomization set the observation cameras of the image "
                 "obs_modes; for render() frames, use camera"
             )
-        return ObservationSpec(mode="state", schema=schema)
+        return ObservationSpec(mode=obs_mode, schema=schema)
     height, width = _image_size(image_size)
     if cameras is None:
         cameras = DEFAULT_CAMERAS

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 import torch as th
+from gymnasium import spaces
 from torch import nn
 
 from . import _common
@@ -95,7 +96,9 @@ def collect_student(
     if not spec.has_images:
         raise InvalidArgumentError("a student observes images: obs_mode must have rgb")
     expert = ScriptedPolicy(config)
-    chunks: dict[str, list[np.ndarray]] = {key: [] for key in spec.space().spaces}
+    space = spec.space()
+    assert isinstance(space, spaces.Dict)  # obs_mode has images
+    chunks: dict[str, list[np.ndarray]] = {key: [] for key in space.spaces}
     labels: list[np.ndarray] = []
     episode_rows: list[np.ndarray] = []
 
