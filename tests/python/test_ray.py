@@ -294,6 +294,34 @@ def test_batched_connectors_refuse_recurrent_modules() -> None:
             connector(rl_module=Recurrent(), batch={}, episodes=[])
 
 
+def test_flat_observations_go_to_the_runner_s_device() -> None:
+    """The factory passes the runner's device on (a runner with a GPU gets its tensors
+    there); here the CPU, by name."""
+    import torch
+
+    from panda_rapier.rllib import flat_observations_to_module
+
+    class Stateless:
+        def is_stateful(self) -> bool:
+            return False
+
+    class Episode:
+        def __init__(self, row: np.ndarray) -> None:
+            self.row = row
+
+        def get_observations(self, index: int) -> np.ndarray:
+            assert index == -1
+            return self.row
+
+    rows = np.arange(6, dtype=np.float32).reshape(2, 3)
+    for device in (None, "cpu"):
+        connector = flat_observations_to_module(device=device)
+        batch = connector(rl_module=Stateless(), batch={}, episodes=[Episode(r) for r in rows])
+        obs = batch["obs"]
+        assert str(obs.device) == "cpu" and obs.dtype == torch.float32
+        np.testing.assert_array_equal(obs.numpy(), rows)
+
+
 def test_episode_outcomes_are_logged_as_rates() -> None:
     logger = MetricsLogger()
     for success, placed in [(True, True), (False, True), (False, False), (True, True)]:

@@ -164,14 +164,21 @@ class FlatObservationsToModule(ConnectorV2):
     environment's latest observation, stacked into one float tensor for the module, in place
     of RLlib's default pipeline (which gathers, batches and converts them one environment at
     a time: about 7 % of a runner's sampling here). The module's input is the same, to the
-    bit. Stateless modules only (:class:`~panda_rapier.ConfigError` otherwise)."""
+    bit, on ``device`` (the runner's, as RLlib passes it to the connector's factory; ``None``:
+    the CPU). Stateless modules only (:class:`~panda_rapier.ConfigError` otherwise)."""
+
+    def __init__(self, *args: Any, device: Any = None, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._device = device
 
     def __call__(
         self, *, rl_module: Any, batch: dict[str, Any], episodes: list[Any], **kwargs: Any
     ) -> Any:
         _check_stateless(rl_module)
-        observations = np.stack([episode.get_observations(-1) for episode in episodes])
-        batch[Columns.OBS] = torch.from_numpy(observations)
+        observations = torch.from_numpy(
+            np.stack([episode.get_observations(-1) for episode in episodes])
+        )
+        batch[Columns.OBS] = observations if self._device is None else observations.to(self._device)
         return batch
 
 
@@ -215,8 +222,9 @@ class SampledActionsToEnv(ConnectorV2):
 
 def flat_observations_to_module(env: Any = None, spaces: Any = None, device: Any = None) -> Any:
     """The env-to-module connector of flat observations (for ``config.env_runners(
-    env_to_module_connector=...)``): :class:`FlatObservationsToModule`."""
-    return FlatObservationsToModule()
+    env_to_module_connector=...)``, which calls it with the runner's env, spaces and device):
+    :class:`FlatObservationsToModule` on that device."""
+    return FlatObservationsToModule(device=device)
 
 
 def sampled_actions_to_env(env: Any = None, spaces: Any = None, device: Any = None) -> Any:
