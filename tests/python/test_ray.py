@@ -1,6 +1,10 @@
 """Scale-out on Ray, on a real local Ray (2 CPUs): RLlib (new API stack) with the native vector
 env in every EnvRunner (panda_rapier.rllib), Ray Tune over the stable-baselines3 recipes
-(panda_rapier.tuning), and the two example scripts."""
+(panda_rapier.tuning), and the two example scripts.
+
+Over 600 lines: one local Ray session (started once, module-scoped) serves every test of the
+RLlib configs, connectors, recipe module and Tune sweeps; splitting the file would start Ray
+once more per file. The multi-node tests are in test_ray_cluster.py."""
 
 from __future__ import annotations
 

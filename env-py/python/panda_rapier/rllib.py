@@ -63,6 +63,7 @@ try:
     from ray.rllib.callbacks.callbacks import RLlibCallback
     from ray.rllib.connectors.connector_v2 import ConnectorV2
     from ray.rllib.connectors.env_to_module import FlattenObservations
+    from ray.rllib.connectors.module_to_env import GetActions
     from ray.rllib.core.columns import Columns
 except ImportError as error:  # pragma: no cover - exercised only without the extra
     raise ImportError(
@@ -188,32 +189,18 @@ class SampledActionsToEnv(ConnectorV2):
     deterministic actions when not exploring, and their log-probabilities), handed to the
     vector env and the episodes as numpy arrays with one row per environment, in place of the
     default pipeline's per-environment unbatching and listing (about 11 % of a runner's
-    sampling). The same draws from torch's generator in the same order, so the same actions
-    to the bit. The env clips actions itself (see :func:`configure_env_runners`)."""
+    sampling). RLlib's own ``GetActions`` draws them, so the same actions to the bit. The env
+    clips actions itself (see :func:`configure_env_runners`)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._get_actions = GetActions()
 
     def __call__(
-        self,
-        *,
-        rl_module: Any,
-        batch: dict[str, Any],
-        episodes: list[Any],
-        explore: bool | None = None,
-        **kwargs: Any,
+        self, *, rl_module: Any, batch: dict[str, Any], episodes: list[Any], **kwargs: Any
     ) -> Any:
         _check_stateless(rl_module)
-        if Columns.ACTIONS not in batch:
-            dist_class = (
-                rl_module.get_exploration_action_dist_cls()
-                if explore
-                else rl_module.get_inference_action_dist_cls()
-            )
-            dist = dist_class.from_logits(batch[Columns.ACTION_DIST_INPUTS])
-            if not explore:
-                dist = dist.to_deterministic()
-            actions = dist.sample()
-            batch[Columns.ACTIONS] = actions
-            if Columns.ACTION_LOGP not in batch:
-                batch[Columns.ACTION_LOGP] = dist.logp(actions)
+        batch = self._get_actions(rl_module=rl_module, batch=batch, episodes=episodes, **kwargs)
         return {
             key: value.detach().cpu().numpy() if isinstance(value, torch.Tensor) else value
             for key, value in batch.items()
