@@ -191,8 +191,16 @@ impl IndexedMesh {
 
     /// Triangle `i`'s corners from `vertices` (this mesh's, or their images under a map).
     pub fn corners<T: Copy>(&self, i: usize, vertices: &[T]) -> [T; 3] {
-        self.triangles[i].map(|k| vertices[k as usize])
+        map3(self.triangles[i], |k| vertices[k as usize])
     }
+}
+
+/// `a.map(f)` for three elements, spelt out: `[T; 3]::map` goes through `try_map`, which
+/// is not always inlined, and the renderer calls this for every corner of every triangle.
+#[inline(always)]
+pub(crate) fn map3<T, U>(a: [T; 3], mut f: impl FnMut(T) -> U) -> [U; 3] {
+    let [x, y, z] = a;
+    [f(x), f(y), f(z)]
 }
 
 #[cfg(test)]

@@ -187,13 +187,22 @@ fn rasterize(width: u32, height: u32, v: &[ScreenVertex; 3], mut f: impl FnMut(u
         let mut wa = edge(b, c, px, py) * inv_area;
         let mut wb = edge(c, a, px, py) * inv_area;
         let mut wc = edge(a, b, px, py) * inv_area;
-        for x in x0..=x1 {
-            if wa >= 0.0 && wb >= 0.0 && wc >= 0.0 {
-                f(x, y, wa * a.inv_depth + wb * b.inv_depth + wc * c.inv_depth);
-            }
+        // Each weight steps by a constant, so it only grows or only shrinks along the row (a
+        // rounded sum never steps back): the pixels inside form one run. Step up to it, draw
+        // it, and leave the row where it ends.
+        let mut x = x0;
+        while x <= x1 && !(wa >= 0.0 && wb >= 0.0 && wc >= 0.0) {
             wa += da;
             wb += db;
             wc += dc;
+            x += 1;
+        }
+        while x <= x1 && wa >= 0.0 && wb >= 0.0 && wc >= 0.0 {
+            f(x, y, wa * a.inv_depth + wb * b.inv_depth + wc * c.inv_depth);
+            wa += da;
+            wb += db;
+            wc += dc;
+            x += 1;
         }
     }
 }

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::camera::{clip_near, Camera, CameraConfig, Projection, NEAR};
 use crate::look::{episode_key, Look, VisualRandomization};
-use crate::mesh::{tessellate_with, Detail, IndexedMesh, Triangle};
+use crate::mesh::{map3, tessellate_with, Detail, IndexedMesh, Triangle};
 use crate::raster::{Frame, ScreenVertex};
 
 /// Largest width or height accepted (pixels).
@@ -106,6 +106,64 @@ const GOAL_RADIUS: f64 = 0.015;
 /// Floor tiles: a checkerboard of this many tiles of this size around the robot.
 const FLOOR_TILE: f64 = 0.25;
 const FLOOR_TILES: i32 = 20;
+
+/// A horizontal surface that shadows fall on: the floor (unbounded) or the top of a box.
+#[derive(Debug, Clone, Copy)]
+struct Receiver {
+    /// Its height (m).
+    height: f64,
+    /// Where it ends, if it does (widened by [`RECEIVER_MARGIN`]).
+    bounds: Option<Rect>,
+}
+
+/// How far beyond a bounded receiver's edges its shadows are still drawn (m): a shadow is
+/// marked on whatever is drawn within the rasteriser's depth tolerance of the plane, which
+/// reaches a few millimetres past the edge onto the box's side.
+const RECEIVER_MARGIN: f64 = 0.03;
+
+/// An axis-aligned rectangle in the xy plane (m).
+#[derive(Debug, Clone, Copy)]
+struct Rect {
+    min: [f64; 2],
+    max: [f64; 2],
+}
+
+impl Rect {
+    /// Whether the bounding box of `points` (on the plane) meets the rectangle.
+    fn overlaps(&self, points: &[Vector3<f64>; 3]) -> bool {
+        (0..2).all(|k| {
+            let lo = points[0][k].min(points[1][k]).min(points[2][k]);
+            let hi = points[0][k].max(points[1][k]).max(points[2][k]);
+            hi >= self.min[k] && lo <= self.max[k]
+        })
+    }
+}
+
+impl Receiver {
+    fn unbounded(height: f64) -> Self {
+        Self {
+            height,
+            bounds: None,
+        }
+    }
+
+    /// The top of an upright box at `pose` (its rotation about z allowed for in the bounds).
+    fn box_top(pose: &nalgebra::Isometry3<f64>, half_extents: &Vector3<f64>) -> Self {
+        let (mut min, mut max) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            let corner = pose
+                * nalgebra::Point3::new(sx * half_extents.x, sy * half_extents.y, half_extents.z);
+            for k in 0..2 {
+                min[k] = min[k].min(corner[k] - RECEIVER_MARGIN);
+                max[k] = max[k].max(corner[k] + RECEIVER_MARGIN);
+            }
+        }
+        Self {
+            height: pose.translation.z + half_extents.z,
+            bounds: Some(Rect { min, max }),
+        }
+    }
+}
 
 /// Draws [`PandaEnv`]s (or bare [`Simulation`]s) into a reusable [`Frame`].
 #[derive(Debug, Clone)]
@@ -254,7 +312,7 @@ impl Renderer {
         // The floor comes first: the frame starts as the sky with the floor on it.
         let first = match primitives.first() {
             Some(floor) if floor.tag == VisualTag::Floor => {
-                shadow_planes.push(floor.pose.translation.z);
+                shadow_planes.push(Receiver::unbounded(floor.pose.translation.z));
                 self.clear_with_floor(floor, &light);
                 1
             }
@@ -266,13 +324,13 @@ impl Renderer {
         for (index, p) in primitives.iter().enumerate().skip(first) {
             let color = match p.tag {
                 VisualTag::Floor => {
-                    shadow_planes.push(p.pose.translation.z);
+                    shadow_planes.push(Receiver::unbounded(p.pose.translation.z));
                     self.draw_floor(p, &light);
                     continue;
                 }
                 VisualTag::Platform => {
                     if let VisualShape::Box { half_extents } = &p.shape {
-                        shadow_planes.push(p.pose.translation.z + half_extents.z);
+                        shadow_planes.push(Receiver::box_top(&p.pose, half_extents));
                     }
                     self.look.platform
                 }
@@ -368,7 +426,7 @@ impl Renderer {
             let w = mesh.corners(i, &world);
             let normal = (w[1] - w[0]).cross(&(w[2] - w[0]));
             if casts && normal.dot(light) > 0.0 {
-                self.casters.triangles.push(corners.map(|k| k + offset));
+                self.casters.triangles.push(map3(*corners, |k| k + offset));
             }
             let (v, sv) = (mesh.corners(i, &view), mesh.corners(i, &screen));
             self.draw_seen(&w, &normal, color, light, &v, &sv);
@@ -433,8 +491,8 @@ impl Renderer {
         color: [u8; 3],
         light: &Vector3<f64>,
     ) {
-        let view = world.map(|p| self.camera.to_view(&p));
-        let screen = view.map(|v| self.to_screen_vertex(&v));
+        let view = map3(*world, |p| self.camera.to_view(&p));
+        let screen = map3(view, |v| self.to_screen_vertex(&v));
         self.draw_seen(world, normal, color, light, &view, &screen);
     }
 
@@ -458,7 +516,7 @@ impl Renderer {
         let shade = self.look.ambient
             + self.look.diffuse * n.dot(light).max(0.0)
             + HEADLIGHT * n.dot(&to_eye.normalize()).max(0.0);
-        let shaded = color.map(|c| (f64::from(c) * shade).round().clamp(0.0, 255.0) as u8);
+        let shaded = map3(color, |c| round_to_u8(f64::from(c) * shade));
         for t in self.on_screen(view, screen).iter().flatten() {
             self.frame.fill_triangle(t, shaded);
         }
@@ -466,10 +524,11 @@ impl Renderer {
 
     /// Projects every light-facing caster triangle along the light onto each receiving plane
     /// (the floor, the platform's top) and marks where it lands on a visible surface.
-    fn draw_shadows(&mut self, light: &Vector3<f64>, planes: &[f64]) {
+    fn draw_shadows(&mut self, light: &Vector3<f64>, receivers: &[Receiver]) {
         let casters = std::mem::take(&mut self.casters);
         let mut on_plane = std::mem::take(&mut self.world);
-        for &h in planes {
+        for receiver in receivers {
+            let h = receiver.height;
             // Each caster vertex dropped along the light onto the plane, once.
             on_plane.clear();
             on_plane.extend(casters.vertices.iter().map(|p| {
@@ -478,7 +537,10 @@ impl Renderer {
                 q.z = h;
                 q
             }));
-            self.project(&on_plane);
+            let bounds = receiver.bounds;
+            if bounds.is_none() {
+                self.project(&on_plane);
+            }
             for i in 0..casters.triangles.len() {
                 if casters
                     .corners(i, &casters.vertices)
@@ -487,10 +549,24 @@ impl Renderer {
                 {
                     continue;
                 }
-                let (view, screen) = (
-                    casters.corners(i, &self.view),
-                    casters.corners(i, &self.screen),
-                );
+                let (view, screen) = match bounds {
+                    // A bounded receiver (the platform's top) is small: only the shadows
+                    // that land on it are seen and projected, corner by corner (the same
+                    // bits as projecting every vertex).
+                    Some(bounds) => {
+                        let on = casters.corners(i, &on_plane);
+                        if !bounds.overlaps(&on) {
+                            continue;
+                        }
+                        let view = map3(on, |p| self.camera.to_view(&p));
+                        let projection = self.projection();
+                        (view, map3(view, |v| projection.screen(&v)))
+                    }
+                    None => (
+                        casters.corners(i, &self.view),
+                        casters.corners(i, &self.screen),
+                    ),
+                };
                 for t in self.on_screen(&view, &screen).iter().flatten() {
                     self.frame.mark_shadow(t);
                 }
@@ -532,9 +608,52 @@ impl Renderer {
     }
 }
 
+/// `v.round().clamp(0.0, 255.0) as u8` without the call to `round` (targets without SSE4.1
+/// have no instruction for it): the same value for every `v`, NaN included (0).
+fn round_to_u8(v: f64) -> u8 {
+    if !(v > 0.0) {
+        return 0;
+    }
+    if v >= 255.0 {
+        return 255;
+    }
+    // 0 < v < 255: `t` is `v`'s integer part and `v - t` its exact fraction; halves round
+    // away from zero, as `round` does.
+    let t = v as u32;
+    let up = v - f64::from(t) >= 0.5;
+    (t + u32::from(up)) as u8
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn round_to_u8_is_round_then_clamp() {
+        let mut cases = vec![
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            -1e300,
+            -0.5,
+            -0.0,
+            0.0,
+            0.49999999999999994,
+            0.5,
+            1.5,
+            2.5,
+            254.49999999999997,
+            254.5,
+            254.99999999999997,
+            255.0,
+            255.5,
+            1e300,
+        ];
+        cases.extend((0..20_000).map(|i| f64::from(i) * 0.013_7 - 3.0));
+        for v in cases {
+            assert_eq!(round_to_u8(v), v.round().clamp(0.0, 255.0) as u8, "{v}");
+        }
+    }
 
     #[test]
     fn sizes_are_validated() {
