@@ -611,7 +611,8 @@ impl Renderer {
 /// `v.round().clamp(0.0, 255.0) as u8` without the call to `round` (targets without SSE4.1
 /// have no instruction for it): the same value for every `v`, NaN included (0).
 fn round_to_u8(v: f64) -> u8 {
-    if !(v > 0.0) {
+    // NaN too.
+    if v.is_nan() || v <= 0.0 {
         return 0;
     }
     if v >= 255.0 {
