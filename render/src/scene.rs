@@ -428,8 +428,13 @@ impl Renderer {
             if casts && normal.dot(light) > 0.0 {
                 self.casters.triangles.push(map3(*corners, |k| k + offset));
             }
+            // Faces turned away from the eye are left before their corners are fetched.
+            let to_eye = self.camera.eye - w[0];
+            if normal.dot(&to_eye) <= 0.0 {
+                continue;
+            }
             let (v, sv) = (mesh.corners(i, &view), mesh.corners(i, &screen));
-            self.draw_seen(&w, &normal, color, light, &v, &sv);
+            self.shade_and_fill(&normal, &to_eye, color, light, &v, &sv);
         }
         (self.world, self.view, self.screen) = (world, view, screen);
         self.meshes[index].1 = mesh;
@@ -512,6 +517,19 @@ impl Renderer {
         if normal.dot(&to_eye) <= 0.0 {
             return;
         }
+        self.shade_and_fill(normal, &to_eye, color, light, view, screen);
+    }
+
+    /// Shades and draws a triangle facing the eye (`to_eye`: from its first corner to the eye).
+    fn shade_and_fill(
+        &mut self,
+        normal: &Vector3<f64>,
+        to_eye: &Vector3<f64>,
+        color: [u8; 3],
+        light: &Vector3<f64>,
+        view: &Triangle,
+        screen: &[ScreenVertex; 3],
+    ) {
         let n = normal.normalize();
         let shade = self.look.ambient
             + self.look.diffuse * n.dot(light).max(0.0)
