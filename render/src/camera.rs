@@ -215,6 +215,19 @@ impl Projection {
     }
 }
 
+/// A view-space triangle on the screen: `screen` (its corners projected) where it lies
+/// wholly beyond the near plane, else the projections of its clipped parts.
+pub(crate) fn on_screen(
+    projection: &Projection,
+    view: &Triangle,
+    screen: &[ScreenVertex; 3],
+) -> [Option<[ScreenVertex; 3]>; 2] {
+    if view.iter().all(|v| v.z >= NEAR) {
+        return [Some(*screen), None];
+    }
+    clip_near(view).map(|t| t.map(|t| t.map(|v| projection.screen(&v))))
+}
+
 /// Clips a view-space triangle to the part in front of the near plane: none, one or two
 /// triangles.
 pub(crate) fn clip_near(t: &Triangle) -> [Option<Triangle>; 2] {

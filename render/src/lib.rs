@@ -25,6 +25,7 @@ pub mod mesh;
 pub mod raster;
 mod scene;
 mod sensor;
+mod shadow;
 
 pub use camera::{Camera, CameraConfig};
 pub use look::VisualRandomization;

@@ -20,7 +20,8 @@ pub struct Frame {
     height: u32,
     rgb: Vec<u8>,
     inv_depth: Vec<f32>,
-    shadow: Vec<bool>,
+    /// 1 where a shadow falls, else 0 (bytes, so that eight are tested at once).
+    shadow: Vec<u8>,
 }
 
 /// Relative depth difference under which a shadow triangle counts as lying on the surface
@@ -36,7 +37,7 @@ impl Frame {
             height,
             rgb: vec![0; n * 3],
             inv_depth: vec![0.0; n],
-            shadow: vec![false; n],
+            shadow: vec![0; n],
         }
     }
 
@@ -80,7 +81,7 @@ impl Frame {
             }
         }
         self.inv_depth.fill(0.0);
-        self.shadow.fill(false);
+        self.shadow.fill(0);
     }
 
     /// Makes this frame a copy of `other` (of the same size), reusing its buffers.
@@ -113,21 +114,150 @@ impl Frame {
         rasterize(self.width, self.height, v, |x, y, z| {
             let i = y * width + x;
             if (z - depth[i]).abs() <= SHADOW_DEPTH_TOLERANCE * depth[i] {
-                shadow[i] = true;
+                shadow[i] = 1;
             }
         });
     }
 
-    /// Darkens shadowed pixels to `factor` of their colour (0 to 256 = 1.0).
-    pub fn apply_shadows(&mut self, factor: u16) {
-        for (px, &s) in self.rgb.chunks_exact_mut(3).zip(&self.shadow) {
-            if s {
-                for c in px {
-                    *c = ((u16::from(*c) * factor) >> 8) as u8;
+    /// Marks as shadowed the pixels of the convex polygon `polygon` (its corners in pixel
+    /// coordinates, in order, either winding) where it lies on the drawn surface, as
+    /// [`Frame::mark_shadow`] does for a triangle; `depth` is the polygon's plane, `[a, b, c]`
+    /// for an inverse depth of `a x + b y + c` at a pixel centre (x, y). `spans` is a scratch
+    /// buffer.
+    pub fn mark_shadow_polygon(
+        &mut self,
+        polygon: &[[f32; 2]],
+        depth: [f32; 3],
+        spans: &mut Vec<Span>,
+    ) {
+        let n = polygon.len();
+        if n < 3 {
+            return;
+        }
+        let (mut twice_area, mut min_y, mut max_y) = (0.0f32, f32::INFINITY, f32::NEG_INFINITY);
+        for (i, p) in polygon.iter().enumerate() {
+            let q = polygon[(i + 1) % n];
+            twice_area += p[0] * q[1] - q[0] * p[1];
+            min_y = min_y.min(p[1]);
+            max_y = max_y.max(p[1]);
+        }
+        // Degenerate, or NaN (which fails every comparison).
+        if twice_area.is_nan()
+            || twice_area.abs() <= 1e-12
+            || !(min_y.is_finite() && max_y.is_finite())
+        {
+            return;
+        }
+        // Rows whose pixel centres the polygon can cover, clipped to the picture.
+        let (top, bottom) = (min_y - 0.5, max_y - 0.5);
+        if bottom < 0.0 || top > (self.height - 1) as f32 {
+            return;
+        }
+        let (y0, y1) = (
+            ceil_to_index(top),
+            (bottom as usize).min(self.height as usize - 1),
+        );
+        if y0 > y1 {
+            return;
+        }
+        spans.clear();
+        spans.resize(y1 - y0 + 1, Span::OPEN);
+        // Each edge bounds the rows it crosses on one side: a pixel centre is inside when it
+        // lies on the same side of every edge as the polygon's area (as in `rasterize`).
+        let sign = twice_area.signum();
+        for (i, p) in polygon.iter().enumerate() {
+            let q = polygon[(i + 1) % n];
+            let dy = q[1] - p[1];
+            if dy == 0.0 || !dy.is_finite() {
+                continue;
+            }
+            let left = sign * dy < 0.0;
+            let slope = (q[0] - p[0]) / dy;
+            let (lo, hi) = (p[1].min(q[1]) - 0.5, p[1].max(q[1]) - 0.5);
+            if hi < y0 as f32 || lo > y1 as f32 {
+                continue;
+            }
+            let (r0, r1) = (ceil_to_index(lo).max(y0), (hi as usize).min(y1));
+            for r in r0..=r1 {
+                let x = p[0] + (r as f32 + 0.5 - p[1]) * slope;
+                let span = &mut spans[r - y0];
+                if left {
+                    span.left = span.left.max(x);
+                } else {
+                    span.right = span.right.min(x);
+                }
+            }
+        }
+        let width = self.width as usize;
+        let [a, b, c] = depth;
+        for (k, span) in spans.iter().enumerate() {
+            // A row either edge chain missed (rounding at a corner) is left alone.
+            if !(span.left.is_finite() && span.right.is_finite()) {
+                continue;
+            }
+            let (lo, hi) = (span.left - 0.5, span.right - 0.5);
+            if hi < 0.0 || lo > (width - 1) as f32 || lo > hi {
+                continue;
+            }
+            let (x0, x1) = (ceil_to_index(lo), (hi as usize).min(width - 1));
+            let y = y0 + k;
+            let row = b * (y as f32 + 0.5) + c;
+            for x in x0..=x1 {
+                let z = a * (x as f32 + 0.5) + row;
+                let i = y * width + x;
+                let d = self.inv_depth[i];
+                if (z - d).abs() <= SHADOW_DEPTH_TOLERANCE * d {
+                    self.shadow[i] = 1;
                 }
             }
         }
     }
+
+    /// Darkens shadowed pixels to `factor` of their colour (0 to 256 = 1.0).
+    pub fn apply_shadows(&mut self, factor: u16) {
+        let darken = |px: &mut [u8]| {
+            for c in px {
+                *c = ((u16::from(*c) * factor) >> 8) as u8;
+            }
+        };
+        // Most of a picture is not in shadow: eight pixels are passed over at once.
+        let mut words = self.shadow.chunks_exact(8);
+        for (k, word) in (&mut words).enumerate() {
+            if word.iter().fold(0u8, |m, &s| m | s) == 0 {
+                continue;
+            }
+            for (j, &s) in word.iter().enumerate() {
+                if s != 0 {
+                    let i = (k * 8 + j) * 3;
+                    darken(&mut self.rgb[i..i + 3]);
+                }
+            }
+        }
+        let tail = self.shadow.len() - words.remainder().len();
+        for (j, &s) in words.remainder().iter().enumerate() {
+            if s != 0 {
+                let i = (tail + j) * 3;
+                darken(&mut self.rgb[i..i + 3]);
+            }
+        }
+    }
+}
+
+/// The part of a pixel row inside a polygon, between two horizontal positions (pixels).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Span {
+    /// The left edge (no pixel centre to its left is inside).
+    pub left: f32,
+    /// The right edge.
+    pub right: f32,
+}
+
+impl Span {
+    /// A row not yet bounded on either side.
+    pub const OPEN: Span = Span {
+        left: f32::NEG_INFINITY,
+        right: f32::INFINITY,
+    };
 }
 
 /// `v.ceil().max(0.0) as usize` without the call to `ceilf` (targets without SSE4.1 have no
@@ -338,6 +468,57 @@ mod tests {
         ] {
             assert_eq!(ceil_to_index(v), v.ceil().max(0.0) as usize, "{v}");
         }
+    }
+
+    #[test]
+    fn a_shadow_polygon_marks_what_its_triangles_mark() {
+        let surface = || {
+            let mut frame = Frame::new(40, 30);
+            frame.clear(&[[200, 200, 200]; 30]);
+            // A surface at depth 2 over most of the picture, and a nearer one over a corner.
+            frame.fill_triangle(
+                &[v(-5.0, -5.0, 2.0), v(90.0, -5.0, 2.0), v(-5.0, 90.0, 2.0)],
+                [200, 200, 200],
+            );
+            frame.fill_triangle(
+                &[v(25.0, 0.0, 1.0), v(40.0, 0.0, 1.0), v(40.0, 12.0, 1.0)],
+                [90, 90, 90],
+            );
+            frame
+        };
+        // A convex heptagon reaching off the picture, both windings.
+        let corners: Vec<[f32; 2]> = (0..7)
+            .map(|k| {
+                let a = 0.3 + k as f32 * std::f32::consts::TAU / 7.0;
+                [21.37 + 19.3 * a.cos(), 13.11 + 17.9 * a.sin()]
+            })
+            .collect();
+        let mut fan = surface();
+        for k in 1..corners.len() - 1 {
+            let t = [corners[0], corners[k], corners[k + 1]].map(|[x, y]| v(x, y, 2.0));
+            fan.mark_shadow(&t);
+        }
+        fan.apply_shadows(128);
+        for polygon in [corners.clone(), corners.iter().rev().copied().collect()] {
+            let mut frame = surface();
+            frame.mark_shadow_polygon(&polygon, [0.0, 0.0, 0.5], &mut Vec::new());
+            frame.apply_shadows(128);
+            assert_eq!(frame, fan);
+        }
+        assert!(covered(&fan, [100, 100, 100]).len() > 300);
+        // Degenerate and non-finite polygons mark nothing.
+        let mut frame = surface();
+        let before = frame.clone();
+        for polygon in [
+            vec![[1.0, 1.0], [5.0, 5.0], [9.0, 9.0]],
+            vec![[1.0, 1.0], [f32::NAN, 5.0], [9.0, 1.0]],
+            vec![[1.0, 1.0], [f32::INFINITY, 5.0], [9.0, 1.0]],
+            vec![[1.0, 1.0], [9.0, 1.0]],
+        ] {
+            frame.mark_shadow_polygon(&polygon, [0.0, 0.0, 0.5], &mut Vec::new());
+        }
+        frame.apply_shadows(128);
+        assert_eq!(frame, before);
     }
 
     #[test]

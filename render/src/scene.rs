@@ -7,10 +7,11 @@ use panda_rapier_core::{
 };
 use serde::{Deserialize, Serialize};
 
-use crate::camera::{clip_near, Camera, CameraConfig, Projection, NEAR};
+use crate::camera::{on_screen, Camera, CameraConfig, Projection};
 use crate::look::{episode_key, Look, VisualRandomization};
 use crate::mesh::{map3, tessellate_with, Detail, IndexedMesh, Triangle};
 use crate::raster::{Frame, ScreenVertex};
+use crate::shadow::{Edges, Receiver, Shadows};
 
 /// Largest width or height accepted (pixels).
 pub const MAX_SIZE: u32 = 4096;
@@ -107,64 +108,6 @@ const GOAL_RADIUS: f64 = 0.015;
 const FLOOR_TILE: f64 = 0.25;
 const FLOOR_TILES: i32 = 20;
 
-/// A horizontal surface that shadows fall on: the floor (unbounded) or the top of a box.
-#[derive(Debug, Clone, Copy)]
-struct Receiver {
-    /// Its height (m).
-    height: f64,
-    /// Where it ends, if it does (widened by [`RECEIVER_MARGIN`]).
-    bounds: Option<Rect>,
-}
-
-/// How far beyond a bounded receiver's edges its shadows are still drawn (m): a shadow is
-/// marked on whatever is drawn within the rasteriser's depth tolerance of the plane, which
-/// reaches a few millimetres past the edge onto the box's side.
-const RECEIVER_MARGIN: f64 = 0.03;
-
-/// An axis-aligned rectangle in the xy plane (m).
-#[derive(Debug, Clone, Copy)]
-struct Rect {
-    min: [f64; 2],
-    max: [f64; 2],
-}
-
-impl Rect {
-    /// Whether the bounding box of `points` (on the plane) meets the rectangle.
-    fn overlaps(&self, points: &[Vector3<f64>; 3]) -> bool {
-        (0..2).all(|k| {
-            let lo = points[0][k].min(points[1][k]).min(points[2][k]);
-            let hi = points[0][k].max(points[1][k]).max(points[2][k]);
-            hi >= self.min[k] && lo <= self.max[k]
-        })
-    }
-}
-
-impl Receiver {
-    fn unbounded(height: f64) -> Self {
-        Self {
-            height,
-            bounds: None,
-        }
-    }
-
-    /// The top of an upright box at `pose` (its rotation about z allowed for in the bounds).
-    fn box_top(pose: &nalgebra::Isometry3<f64>, half_extents: &Vector3<f64>) -> Self {
-        let (mut min, mut max) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-            let corner = pose
-                * nalgebra::Point3::new(sx * half_extents.x, sy * half_extents.y, half_extents.z);
-            for k in 0..2 {
-                min[k] = min[k].min(corner[k] - RECEIVER_MARGIN);
-                max[k] = max[k].max(corner[k] + RECEIVER_MARGIN);
-            }
-        }
-        Self {
-            height: pose.translation.z + half_extents.z,
-            bounds: Some(Rect { min, max }),
-        }
-    }
-}
-
 /// Draws [`PandaEnv`]s (or bare [`Simulation`]s) into a reusable [`Frame`].
 #[derive(Debug, Clone)]
 pub struct Renderer {
@@ -177,11 +120,11 @@ pub struct Renderer {
     detail: Detail,
     /// The camera's focal length in pixels.
     focal_px: f64,
-    /// Each primitive's shape and its triangles (in the shape's frame), by primitive index:
-    /// shapes do not change between frames, so they are tessellated once.
-    meshes: Vec<(VisualShape, IndexedMesh)>,
-    /// The light-facing triangles of this frame's shadow casters, on their world vertices.
-    casters: IndexedMesh,
+    /// Each primitive's shape, its triangles (in the shape's frame) and their edges, by
+    /// primitive index: shapes do not change between frames, so they are tessellated once.
+    meshes: Vec<(VisualShape, IndexedMesh, Edges)>,
+    /// This frame's shadow casters.
+    shadows: Shadows,
     /// A primitive's (or the casters') vertices in the world, seen by the camera and on the
     /// screen: each computed once per vertex (buffers kept between frames).
     world: Vec<Vector3<f64>>,
@@ -219,7 +162,7 @@ impl Renderer {
             detail: Detail::for_height(config.height),
             focal_px: camera.focal_px(config.height),
             meshes: Vec::new(),
-            casters: IndexedMesh::default(),
+            shadows: Shadows::default(),
             world: Vec::new(),
             view: Vec::new(),
             screen: Vec::new(),
@@ -307,8 +250,7 @@ impl Renderer {
         let links = sim.model().links();
         let mut primitives = std::mem::take(&mut self.primitives);
         let mut shadow_planes = Vec::new();
-        self.casters.vertices.clear();
-        self.casters.triangles.clear();
+        self.shadows.clear();
         // The floor comes first: the frame starts as the sky with the floor on it.
         let first = match primitives.first() {
             Some(floor) if floor.tag == VisualTag::Floor => {
@@ -372,7 +314,15 @@ impl Renderer {
             };
             self.draw_primitive(primitives.len() + k, &marker, GOAL, &light, false);
         }
-        self.draw_shadows(&light, &shadow_planes);
+        let projection = self.projection();
+        self.shadows.draw(
+            &mut self.frame,
+            &self.camera,
+            &projection,
+            &light,
+            &shadow_planes,
+            SHADOW,
+        );
         primitives.clear();
         self.primitives = primitives;
         &self.frame
@@ -395,14 +345,16 @@ impl Renderer {
         casts: bool,
     ) {
         if self.meshes.len() <= index {
-            self.meshes
-                .resize_with(index + 1, || (VisualShape::Plane, IndexedMesh::default()));
+            self.meshes.resize_with(index + 1, || {
+                (VisualShape::Plane, IndexedMesh::default(), Edges::default())
+            });
         }
-        let (shape, mesh) = &mut self.meshes[index];
+        let (shape, mesh, edges) = &mut self.meshes[index];
         if *shape != p.shape || mesh.triangles.is_empty() {
             let mut triangles = Vec::new();
             tessellate_with(&p.shape, self.detail, &mut triangles);
             *mesh = IndexedMesh::from_triangles(&triangles);
+            *edges = Edges::of(mesh);
             shape.clone_from(&p.shape);
         }
         let mesh = std::mem::take(&mut self.meshes[index].1);
@@ -418,15 +370,14 @@ impl Renderer {
             std::mem::take(&mut self.view),
             std::mem::take(&mut self.screen),
         );
-        let offset = self.casters.vertices.len() as u32;
         if casts {
-            self.casters.vertices.extend_from_slice(&world);
+            self.shadows.begin(&world);
         }
         for (i, corners) in mesh.triangles.iter().enumerate() {
             let w = mesh.corners(i, &world);
             let normal = (w[1] - w[0]).cross(&(w[2] - w[0]));
-            if casts && normal.dot(light) > 0.0 {
-                self.casters.triangles.push(map3(*corners, |k| k + offset));
+            if casts {
+                self.shadows.triangle(*corners, normal.dot(light) > 0.0);
             }
             // Faces turned away from the eye are left before their corners are fetched.
             let to_eye = self.camera.eye - w[0];
@@ -435,6 +386,9 @@ impl Renderer {
             }
             let (v, sv) = (mesh.corners(i, &view), mesh.corners(i, &screen));
             self.shade_and_fill(&normal, &to_eye, color, light, &v, &sv);
+        }
+        if casts {
+            self.shadows.end(&self.meshes[index].2);
         }
         (self.world, self.view, self.screen) = (world, view, screen);
         self.meshes[index].1 = mesh;
@@ -540,77 +494,13 @@ impl Renderer {
         }
     }
 
-    /// Projects every light-facing caster triangle along the light onto each receiving plane
-    /// (the floor, the platform's top) and marks where it lands on a visible surface.
-    fn draw_shadows(&mut self, light: &Vector3<f64>, receivers: &[Receiver]) {
-        let casters = std::mem::take(&mut self.casters);
-        let mut on_plane = std::mem::take(&mut self.world);
-        for receiver in receivers {
-            let h = receiver.height;
-            // Each caster vertex dropped along the light onto the plane, once.
-            on_plane.clear();
-            on_plane.extend(casters.vertices.iter().map(|p| {
-                let lift = (p.z - h).max(0.0);
-                let mut q = p - light * (lift / light.z);
-                q.z = h;
-                q
-            }));
-            let bounds = receiver.bounds;
-            if bounds.is_none() {
-                self.project(&on_plane);
-            }
-            for i in 0..casters.triangles.len() {
-                if casters
-                    .corners(i, &casters.vertices)
-                    .iter()
-                    .all(|p| p.z <= h)
-                {
-                    continue;
-                }
-                let (view, screen) = match bounds {
-                    // A bounded receiver (the platform's top) is small: only the shadows
-                    // that land on it are seen and projected, corner by corner (the same
-                    // bits as projecting every vertex).
-                    Some(bounds) => {
-                        let on = casters.corners(i, &on_plane);
-                        if !bounds.overlaps(&on) {
-                            continue;
-                        }
-                        let view = map3(on, |p| self.camera.to_view(&p));
-                        let projection = self.projection();
-                        (view, map3(view, |v| projection.screen(&v)))
-                    }
-                    None => (
-                        casters.corners(i, &self.view),
-                        casters.corners(i, &self.screen),
-                    ),
-                };
-                for t in self.on_screen(&view, &screen).iter().flatten() {
-                    self.frame.mark_shadow(t);
-                }
-            }
-        }
-        self.world = on_plane;
-        self.casters = casters;
-        self.frame.apply_shadows(SHADOW);
-    }
-
-    /// A view-space triangle on the screen: `screen` (its corners projected) where it lies
-    /// wholly beyond the near plane, else the projections of its clipped parts.
+    /// A view-space triangle on the screen (see [`on_screen`]).
     fn on_screen(
         &self,
         view: &Triangle,
         screen: &[ScreenVertex; 3],
     ) -> [Option<[ScreenVertex; 3]>; 2] {
-        if view.iter().all(|v| v.z >= NEAR) {
-            return [Some(*screen), None];
-        }
-        clip_near(view).map(|t| t.map(|t| self.to_screen(&t)))
-    }
-
-    fn to_screen(&self, t: &Triangle) -> [ScreenVertex; 3] {
-        let projection = self.projection();
-        t.map(|v| projection.screen(&v))
+        on_screen(&self.projection(), view, screen)
     }
 
     fn to_screen_vertex(&self, v: &Vector3<f64>) -> ScreenVertex {
