@@ -206,11 +206,14 @@ pub(crate) struct Projection {
 
 impl Projection {
     pub(crate) fn screen(&self, v: &Vector3<f64>) -> ScreenVertex {
-        let f = self.focal_px;
+        // One division: the f64 results move by an ulp at most, which their f32 roundings
+        // below almost never see.
+        let inv = 1.0 / v.z;
+        let f = self.focal_px * inv;
         ScreenVertex {
-            x: (self.cx + f * v.x / v.z) as f32,
-            y: (self.cy - f * v.y / v.z) as f32,
-            inv_depth: (1.0 / v.z) as f32,
+            x: (self.cx + f * v.x) as f32,
+            y: (self.cy - f * v.y) as f32,
+            inv_depth: inv as f32,
         }
     }
 }

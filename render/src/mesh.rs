@@ -83,7 +83,7 @@ pub fn tessellate_with(shape: &VisualShape, detail: Detail, out: &mut Vec<Triang
             radius,
         } => {
             let ring = |k: usize, z: f64| {
-                let a = TAU * k as f64 / slices as f64;
+                let a = TAU * (k % slices) as f64 / slices as f64;
                 Vector3::new(radius * a.cos(), radius * a.sin(), z)
             };
             let (top, bottom) = (Vector3::z() * *half_height, -Vector3::z() * *half_height);
@@ -139,7 +139,12 @@ fn round(radius: f64, half_height: f64, detail: Detail, out: &mut Vec<Triangle>)
                 half_height,
             )
         };
-        let lon = TAU * slice as f64 / slices as f64;
+        // The seam (slice `slices`) is slice 0 and the poles are one point each, bit for bit,
+        // so that the mesh's shared corners are stored (and transformed) once.
+        if stack == 0 || stack == stacks + 1 {
+            return Vector3::new(0.0, 0.0, radius * lat.sin() + shift);
+        }
+        let lon = TAU * (slice % slices) as f64 / slices as f64;
         Vector3::new(
             radius * lat.cos() * lon.cos(),
             radius * lat.cos() * lon.sin(),

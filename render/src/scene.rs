@@ -360,11 +360,13 @@ impl Renderer {
         let mesh = std::mem::take(&mut self.meshes[index].1);
         let mut world = std::mem::take(&mut self.world);
         world.clear();
-        world.extend(
-            mesh.vertices
-                .iter()
-                .map(|v| (p.pose * nalgebra::Point3::from(*v)).coords),
+        // The pose's rotation as a matrix, once per primitive (the same up to the last bits
+        // as turning each vertex by the quaternion, and cheaper).
+        let (rotation, translation) = (
+            p.pose.rotation.to_rotation_matrix().into_inner(),
+            p.pose.translation.vector,
         );
+        world.extend(mesh.vertices.iter().map(|v| rotation * v + translation));
         self.project(&world);
         let (view, screen) = (
             std::mem::take(&mut self.view),
@@ -484,10 +486,12 @@ impl Renderer {
         view: &Triangle,
         screen: &[ScreenVertex; 3],
     ) {
-        let n = normal.normalize();
+        // The cosines to the light and to the eye, without normalising either vector (the
+        // same up to the last bits, which the colour's rounding to a byte does not see).
+        let length = normal.norm();
         let shade = self.look.ambient
-            + self.look.diffuse * n.dot(light).max(0.0)
-            + HEADLIGHT * n.dot(&to_eye.normalize()).max(0.0);
+            + self.look.diffuse * (normal.dot(light) / length).max(0.0)
+            + HEADLIGHT * (normal.dot(to_eye) / (length * to_eye.norm())).max(0.0);
         let shaded = map3(color, |c| round_to_u8(f64::from(c) * shade));
         for t in self.on_screen(view, screen).iter().flatten() {
             self.frame.fill_triangle(t, shaded);
