@@ -197,7 +197,7 @@ impl Edges {
 /// One shadow caster of a frame: ranges into [`Shadows`]' buffers.
 #[derive(Debug, Clone)]
 struct Caster {
-    /// Its light-facing triangles in `Shadows::casters.triangles`.
+    /// Its triangles in `Shadows::casters.triangles` (and `Shadows::lit`).
     triangles: Range<usize>,
     /// Its outline in `Shadows::outlines` (indices into `Shadows::casters.vertices`); empty
     /// when it has none.
@@ -210,13 +210,14 @@ struct Caster {
 /// The shadow casters of the frame being drawn, and the buffers their shadows are drawn with.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Shadows {
-    /// Every caster's vertices in the world and its light-facing triangles.
+    /// Every caster's vertices in the world and its triangles, and whether each faces the
+    /// light.
     casters: IndexedMesh,
+    lit: Vec<bool>,
     parts: Vec<Caster>,
     outlines: Vec<u32>,
-    /// Scratch: which triangles of the caster being added face the light, the outline walk,
-    /// an outline on the plane and on the screen, and a polygon's spans.
-    lit: Vec<bool>,
+    /// Scratch: the outline walk, an outline on the plane and on the screen, and a polygon's
+    /// spans.
     next: Vec<u32>,
     /// Where the caster being added starts in `casters`.
     offset: u32,
@@ -231,6 +232,7 @@ impl Shadows {
     pub(crate) fn clear(&mut self) {
         self.casters.vertices.clear();
         self.casters.triangles.clear();
+        self.lit.clear();
         self.parts.clear();
         self.outlines.clear();
     }
@@ -241,24 +243,20 @@ impl Shadows {
         self.offset = self.casters.vertices.len() as u32;
         self.casters.vertices.extend_from_slice(world);
         self.first_triangle = self.casters.triangles.len();
-        self.lit.clear();
     }
 
     /// The caster's next triangle (its corners in its mesh) and whether it faces the light.
     pub(crate) fn triangle(&mut self, corners: [u32; 3], lit: bool) {
+        let offset = self.offset;
+        self.casters.triangles.push(map3(corners, |k| k + offset));
         self.lit.push(lit);
-        if lit {
-            let offset = self.offset;
-            self.casters.triangles.push(map3(corners, |k| k + offset));
-        }
     }
 
     /// Ends the caster begun last, whose mesh has `edges`.
     pub(crate) fn end(&mut self, edges: &Edges) {
         let first = self.outlines.len();
-        if self.lit.len() == edges.triangles
-            && edges.outline(&self.lit, &mut self.next, &mut self.outlines)
-        {
+        let lit = &self.lit[self.first_triangle..];
+        if lit.len() == edges.triangles && edges.outline(lit, &mut self.next, &mut self.outlines) {
             let offset = self.offset;
             for k in &mut self.outlines[first..] {
                 *k += offset;
@@ -362,6 +360,9 @@ impl Shadows {
     ) {
         let h = receiver.height;
         for i in self.parts[part].triangles.clone() {
+            if !self.lit[i] {
+                continue;
+            }
             let corners = self.casters.corners(i, &self.casters.vertices);
             if corners.iter().all(|p| p.z <= h) {
                 continue;

@@ -64,9 +64,17 @@ class Schema:
 
     def part(self, key: str) -> slice:
         """Where the goal-dict entry ``key`` sits in the flat vector."""
-        starts = [s["start"] for s in self.slots if s["key"] == key]
-        stops = [s["stop"] for s in self.slots if s["key"] == key]
-        return slice(min(starts), max(stops))
+        return self._parts[key]
+
+    @functools.cached_property
+    def _parts(self) -> dict[str, slice]:
+        """Every dict entry's slice, worked out once (every step splits an observation)."""
+        parts: dict[str, slice] = {}
+        for key in dict.fromkeys(s["key"] for s in self.slots):
+            starts = [s["start"] for s in self.slots if s["key"] == key]
+            stops = [s["stop"] for s in self.slots if s["key"] == key]
+            parts[key] = slice(min(starts), max(stops))
+        return parts
 
     @property
     def observation_dim(self) -> int:

@@ -214,8 +214,8 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
         return self._obs.assemble(flat, images)
 
     def _with_masks(self, infos: dict[str, Any]) -> dict[str, Any]:
-        for key in [k for k in infos if not k.startswith("_")]:
-            infos.setdefault(f"_{key}", self._masks_all)
+        missing = [k for k in infos if k[0] != "_" and "_" + k not in infos]
+        infos.update(dict.fromkeys(["_" + k for k in missing], self._masks_all))
         return infos
 
     def render(self) -> np.ndarray | None:  # type: ignore[override]
