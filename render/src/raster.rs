@@ -155,7 +155,7 @@ impl Frame {
         }
         let (y0, y1) = (
             ceil_to_index(top),
-            (bottom as usize).min(self.height as usize - 1),
+            floor_index(bottom).min(self.height as usize - 1),
         );
         if y0 > y1 {
             return;
@@ -174,12 +174,12 @@ impl Frame {
             let left = sign * dy < 0.0;
             let slope = (q[0] - p[0]) / dy;
             let (lo, hi) = (p[1].min(q[1]) - 0.5, p[1].max(q[1]) - 0.5);
-            if hi < y0 as f32 || lo > y1 as f32 {
+            if hi < index_to_f32(y0) || lo > index_to_f32(y1) {
                 continue;
             }
-            let (r0, r1) = (ceil_to_index(lo).max(y0), (hi as usize).min(y1));
+            let (r0, r1) = (ceil_to_index(lo).max(y0), floor_index(hi).min(y1));
             for r in r0..=r1 {
-                let x = p[0] + (r as f32 + 0.5 - p[1]) * slope;
+                let x = p[0] + (index_to_f32(r) + 0.5 - p[1]) * slope;
                 let span = &mut spans[r - y0];
                 if left {
                     span.left = span.left.max(x);
@@ -196,14 +196,14 @@ impl Frame {
                 continue;
             }
             let (lo, hi) = (span.left - 0.5, span.right - 0.5);
-            if hi < 0.0 || lo > (width - 1) as f32 || lo > hi {
+            if hi < 0.0 || lo > index_to_f32(width - 1) || lo > hi {
                 continue;
             }
-            let (x0, x1) = (ceil_to_index(lo), (hi as usize).min(width - 1));
+            let (x0, x1) = (ceil_to_index(lo), floor_index(hi).min(width - 1));
             let y = y0 + k;
-            let row = b * (y as f32 + 0.5) + c;
+            let row = b * (index_to_f32(y) + 0.5) + c;
             for x in x0..=x1 {
-                let z = a * (x as f32 + 0.5) + row;
+                let z = a * (index_to_f32(x) + 0.5) + row;
                 let i = y * width + x;
                 let d = self.inv_depth[i];
                 if (z - d).abs() <= SHADOW_DEPTH_TOLERANCE * d {
@@ -260,20 +260,32 @@ impl Span {
     };
 }
 
-/// `v.ceil().max(0.0) as usize` without the call to `ceilf` (targets without SSE4.1 have no
-/// instruction for it): the same value for every `v` that is not NaN. (For `v >= 0`,
-/// `v as usize` is `v.floor() as usize`, which the callers use for the last pixel.)
+/// `v.ceil().max(0.0)` as an index, without the call to `ceilf` (targets without SSE4.1 have
+/// no instruction for it): the same value for every `v` that is not NaN, saturating at
+/// `u32::MAX` (pictures are far smaller). For the last pixel the callers use [`floor_index`].
 fn ceil_to_index(v: f32) -> usize {
     if v <= 0.0 {
         return 0;
     }
-    // Saturating: `v as usize` saturates too, at `usize::MAX` for huge or infinite `v`.
-    let t = v as usize;
-    if (t as f32) < v {
+    let t = v as u32;
+    (if (t as f32) < v {
         t.saturating_add(1)
     } else {
         t
-    }
+    }) as usize
+}
+
+/// `v.floor().max(0.0)` as an index (NaN gives 0), saturating at `u32::MAX`. Through `u32`
+/// because converting an `f32` to a `usize` (an unsigned 64-bit integer) takes about a dozen
+/// x86-64 instructions, and to a `u32` a few; every caller then clamps to the picture.
+fn floor_index(v: f32) -> usize {
+    v as u32 as usize
+}
+
+/// A pixel index as an `f32` (exact: pictures are at most [`crate::MAX_SIZE`] across), through
+/// `u32` for the same reason as [`floor_index`].
+fn index_to_f32(i: usize) -> f32 {
+    i as u32 as f32
 }
 
 /// Calls `f(x, y, inv_depth)` for every pixel whose centre lies inside the triangle (either
@@ -300,9 +312,9 @@ fn rasterize(width: u32, height: u32, v: &[ScreenVertex; 3], mut f: impl FnMut(u
         return;
     }
     let x0 = ceil_to_index(min_x);
-    let x1 = (max_x as usize).min(width as usize - 1);
+    let x1 = floor_index(max_x).min(width as usize - 1);
     let y0 = ceil_to_index(min_y);
-    let y1 = (max_y as usize).min(height as usize - 1);
+    let y1 = floor_index(max_y).min(height as usize - 1);
     let inv_area = 1.0 / area;
     // Barycentric weights of a, b, c are the edges opposite them over the area; both step
     // linearly along a row.
@@ -312,8 +324,8 @@ fn rasterize(width: u32, height: u32, v: &[ScreenVertex; 3], mut f: impl FnMut(u
         -(b.y - a.y) * inv_area,
     );
     for y in y0..=y1 {
-        let py = y as f32 + 0.5;
-        let px = x0 as f32 + 0.5;
+        let py = index_to_f32(y) + 0.5;
+        let px = index_to_f32(x0) + 0.5;
         let mut wa = edge(b, c, px, py) * inv_area;
         let mut wb = edge(c, a, px, py) * inv_area;
         let mut wc = edge(a, b, px, py) * inv_area;
@@ -466,7 +478,10 @@ mod tests {
             f32::INFINITY,
             f32::NEG_INFINITY,
         ] {
-            assert_eq!(ceil_to_index(v), v.ceil().max(0.0) as usize, "{v}");
+            let expected = (v.ceil().max(0.0) as usize).min(u32::MAX as usize);
+            assert_eq!(ceil_to_index(v), expected, "{v}");
+            let expected = (v.floor().max(0.0) as usize).min(u32::MAX as usize);
+            assert_eq!(floor_index(v), expected, "{v}");
         }
     }
 
