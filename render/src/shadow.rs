@@ -480,6 +480,34 @@ mod tests {
     }
 
     #[test]
+    fn a_box_top_receives_only_what_lands_on_it() {
+        // A 0.3 m platform turned 90 degrees about z, its top at 0.1 m.
+        let pose = nalgebra::Isometry3::new(
+            Vector3::new(0.5, 0.1, 0.05),
+            Vector3::z() * std::f64::consts::FRAC_PI_2,
+        );
+        let top = Receiver::box_top(&pose, &Vector3::new(0.15, 0.1, 0.05));
+        assert!((top.height - 0.1).abs() < 1e-12);
+        let bounds = top.bounds.expect("a box top is bounded");
+        // Turned, its 0.3 m side runs along y; the margin widens both.
+        let near = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        assert!(
+            near(bounds.min[0], 0.4 - RECEIVER_MARGIN)
+                && near(bounds.max[0], 0.6 + RECEIVER_MARGIN)
+        );
+        assert!(
+            near(bounds.min[1], -0.05 - RECEIVER_MARGIN)
+                && near(bounds.max[1], 0.25 + RECEIVER_MARGIN)
+        );
+        let at = |x: f64, y: f64| Vector3::new(x, y, 0.1);
+        assert!(bounds.overlaps(&[at(0.5, 0.1), at(0.9, 0.9), at(0.9, 0.8)]));
+        // A triangle whose corners all miss the top but which crosses it.
+        assert!(bounds.overlaps(&[at(0.3, 0.1), at(0.7, 0.1), at(0.7, 0.12)]));
+        assert!(!bounds.overlaps(&[at(0.7, 0.1), at(0.9, 0.1), at(0.8, 0.2)]));
+        assert!(Receiver::unbounded(0.0).bounds.is_none());
+    }
+
+    #[test]
     fn an_open_mesh_has_no_outline() {
         let mut mesh = mesh(&VisualShape::Box {
             half_extents: Vector3::new(0.1, 0.1, 0.1),
