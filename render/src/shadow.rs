@@ -290,6 +290,12 @@ impl Shadows {
         for receiver in receivers {
             let h = receiver.height;
             let depth = depth_plane(camera, projection, h);
+            let pass = Pass {
+                camera,
+                projection,
+                light,
+                receiver,
+            };
             for part in 0..self.parts.len() {
                 let caster = &self.parts[part];
                 if caster.max_z <= h {
@@ -298,12 +304,12 @@ impl Shadows {
                 }
                 let drawn = match depth {
                     Some(depth) if caster.min_z >= h && !caster.outline.is_empty() => {
-                        self.draw_outline(frame, camera, projection, light, receiver, part, depth)
+                        self.draw_outline(frame, &pass, part, depth)
                     }
                     _ => false,
                 };
                 if !drawn {
-                    self.draw_triangles(frame, camera, projection, light, receiver, part);
+                    self.draw_triangles(frame, &pass, part);
                 }
             }
         }
@@ -312,17 +318,19 @@ impl Shadows {
 
     /// Drops the caster's outline onto the receiver and marks it as one polygon; false when
     /// it reaches behind the near plane (the caller marks it triangle by triangle).
-    #[allow(clippy::too_many_arguments)]
     fn draw_outline(
         &mut self,
         frame: &mut Frame,
-        camera: &Camera,
-        projection: &Projection,
-        light: &Vector3<f64>,
-        receiver: &Receiver,
+        pass: &Pass,
         part: usize,
         depth: [f32; 3],
     ) -> bool {
+        let Pass {
+            camera,
+            projection,
+            light,
+            receiver,
+        } = *pass;
         let h = receiver.height;
         let outline = self.parts[part].outline.clone();
         self.on_plane.clear();
@@ -349,15 +357,13 @@ impl Shadows {
     }
 
     /// Drops each of the caster's light-facing triangles onto the receiver and marks it.
-    fn draw_triangles(
-        &mut self,
-        frame: &mut Frame,
-        camera: &Camera,
-        projection: &Projection,
-        light: &Vector3<f64>,
-        receiver: &Receiver,
-        part: usize,
-    ) {
+    fn draw_triangles(&mut self, frame: &mut Frame, pass: &Pass, part: usize) {
+        let Pass {
+            camera,
+            projection,
+            light,
+            receiver,
+        } = *pass;
         let h = receiver.height;
         for i in self.parts[part].triangles.clone() {
             if !self.lit[i] {
@@ -380,6 +386,16 @@ impl Shadows {
             }
         }
     }
+}
+
+/// What one receiver's shadows are drawn with: the camera that sees them, the light that
+/// casts them and the receiver they fall on.
+#[derive(Clone, Copy)]
+struct Pass<'a> {
+    camera: &'a Camera,
+    projection: &'a Projection,
+    light: &'a Vector3<f64>,
+    receiver: &'a Receiver,
 }
 
 /// `p` moved along `light` down onto the plane at height `h` (points below it stay put).
