@@ -231,7 +231,7 @@ def test_tune_retries_a_trial_whose_node_dies_from_its_last_checkpoint(
         DENSE,
         seeds=[0],
         hyperparams={"n_steps": 64, "batch_size": 128, "n_epochs": 1},
-        timesteps=2048,
+        timesteps=4096,  # 16 checkpoints: seconds left to remove the node after the first
         n_envs=4,
         eval_every=256,
         eval_episodes=4,
@@ -243,14 +243,16 @@ def test_tune_retries_a_trial_whose_node_dies_from_its_last_checkpoint(
     fitting = threading.Thread(target=lambda: outcome.update(results=tuner.fit()))
     fitting.start()
     deadline = time.monotonic() + 240
-    attempts: list[Path] = []
-    while time.monotonic() < deadline and fitting.is_alive():
-        attempts = list(tmp_path.glob("sweep/*/attempts.jsonl"))
-        if attempts and list(attempts[0].parent.glob("checkpoint_*")):
-            break
-        time.sleep(0.1)
-    assert attempts, "the trial never reported a checkpoint"
-    first = json.loads(attempts[0].read_text().splitlines()[0])
+    # The trial's first checkpoint in Tune's storage names the node it runs on.
+    first: dict[str, Any] = {}
+    while time.monotonic() < deadline and fitting.is_alive() and not first:
+        for path in sorted(tmp_path.glob("sweep/*/checkpoint_*/attempts.jsonl")):
+            text = path.read_text()
+            if text.endswith("\n"):  # copied whole
+                first = json.loads(text.splitlines()[0])
+                break
+        time.sleep(0.05)
+    assert first, "the trial never reported a checkpoint"
     victim = next(n for n in fresh if n.node_id == first["node_id"])
     cluster.remove_node(victim)
     fitting.join(timeout=300)
@@ -258,8 +260,10 @@ def test_tune_retries_a_trial_whose_node_dies_from_its_last_checkpoint(
     results = outcome["results"]
     assert len(results) == 1 and not results.errors
     result = results[0]
-    assert result.metrics["env_steps"] == 2048
-    lines = [json.loads(x) for x in attempts[0].read_text().splitlines()]
+    assert result.metrics["env_steps"] == 4096
+    lines = [
+        json.loads(x) for x in (Path(result.path) / "run/attempts.jsonl").read_text().splitlines()
+    ]
     assert len(lines) == 2
     assert lines[0]["resumed_from_env_steps"] == 0
     assert lines[1]["resumed_from_env_steps"] >= 256  # from its checkpoint, not the start
@@ -270,4 +274,4 @@ def test_tune_retries_a_trial_whose_node_dies_from_its_last_checkpoint(
         json.loads(x)["env_steps"]
         for x in (Path(result.path) / "run/evaluations.jsonl").read_text().splitlines()
     ]
-    assert steps == sorted(set(steps)) and steps[-1] == 2048
+    assert steps == sorted(set(steps)) and steps[-1] == 4096

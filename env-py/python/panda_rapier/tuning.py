@@ -165,7 +165,7 @@ def sb3_trainable(config: Mapping[str, Any]) -> None:
 
     run_dir = trial_dir / "run"
     resume = _restore(run_dir)
-    _log_attempt(trial_dir, run_dir, resume)
+    _log_attempt(run_dir, resume)
     pending: list[dict[str, Any]] = []
 
     def metrics_of(line: Mapping[str, Any]) -> dict[str, Any]:
@@ -213,7 +213,9 @@ def sb3_trainable(config: Mapping[str, Any]) -> None:
 
 
 #: What a trial's checkpoint holds of its run directory: what ``train(resume=True)`` reads.
-_RESUMABLE = ("checkpoints", "run.json", "evaluations.jsonl", "best.zip")
+#: ``attempts.jsonl`` rides along, so every checkpoint in Tune's storage lists the attempts
+#: before it, even those whose node died (a node's working directory dies with it).
+_RESUMABLE = ("checkpoints", "run.json", "evaluations.jsonl", "best.zip", "attempts.jsonl")
 
 
 def _restore(run_dir: Path) -> bool:
@@ -230,9 +232,10 @@ def _restore(run_dir: Path) -> bool:
     return True
 
 
-def _log_attempt(trial_dir: Path, run_dir: Path, resumed: bool) -> None:
-    """Appends this attempt of the trial to ``TRIAL_DIR/attempts.jsonl``: the Ray node and
-    host it runs on, and the env steps it resumes from (0: from the start)."""
+def _log_attempt(run_dir: Path, resumed: bool) -> None:
+    """Appends this attempt of the trial to ``RUN_DIR/attempts.jsonl`` (restored from the
+    checkpoint with the rest of the run): the Ray node and host it runs on, and the env steps
+    it resumes from (0: from the start)."""
     import json
     import socket
     import time
@@ -247,7 +250,8 @@ def _log_attempt(trial_dir: Path, run_dir: Path, resumed: bool) -> None:
         "started": time.time(),
         "resumed_from_env_steps": steps,
     }
-    with (trial_dir / "attempts.jsonl").open("a") as file:
+    run_dir.mkdir(parents=True, exist_ok=True)
+    with (run_dir / "attempts.jsonl").open("a") as file:
         file.write(json.dumps(line) + "\n")
 
 
@@ -284,8 +288,9 @@ def sb3_tuner(
     Fault tolerance: a trial checkpoints its run at every evaluation (Tune keeps the
     checkpoints in its storage); a trial that fails, for instance because its node died, is
     started again up to ``max_failures`` times, on any node with room, and goes on from its
-    last checkpoint (``panda-rapier train --resume``). ``TRIAL_DIR/attempts.jsonl`` lists each
-    attempt's node and the env steps it resumed from.
+    last checkpoint (``panda-rapier train --resume``). ``TRIAL_DIR/run/attempts.jsonl`` lists
+    each attempt's node and the env steps it resumed from; each checkpoint carries the list as
+    it stood then.
     """
     check_sweep(algo, env_id, hyperparams, conf)
     seeds = list(seeds)
