@@ -33,7 +33,7 @@ from panda_rapier.normalization import NormalizedFlatten, fit_normalizers  # noq
 from panda_rapier.phases import PHASES, describe_split  # noqa: E402
 from panda_rapier.registration import env_config  # noqa: E402
 from panda_rapier.sb3 import make_vec_env  # noqa: E402
-from panda_rapier.training import load_recipe  # noqa: E402
+from panda_rapier.training import load_recipe, recipe_validation, train  # noqa: E402
 
 th.set_num_threads(1)
 
@@ -276,6 +276,54 @@ def test_train_stops_early_and_ends_on_the_best_weights(tmp_path: Path) -> None:
         main([*common, "--out", str(tmp_path / "c"), "--stop-at", "1.5"])
 
 
+def test_a_recipe_file_says_how_its_runs_validate_stop_and_finish(tmp_path: Path) -> None:
+    """A recipe file's ``validation`` entry (rl-zoo3 ignores it) is what a run does when no
+    flag says otherwise: a run taken to its end needs no flag to end on its best weights."""
+    env_id = "panda_rapier/PickAndPlaceDense-v0"
+    recipe = {
+        "n_envs": 4,
+        "n_steps": 32,
+        "batch_size": 64,
+        "n_epochs": 1,
+        "policy_kwargs": "dict(features_extractor_class=NormalizedFlatten, net_arch=[32])",
+    }
+    conf = tmp_path / "ppo.yml"
+    validation = {"every": 128, "episodes": 2, "patience": 2, "final": "best"}
+    conf.write_text(yaml.safe_dump({env_id: recipe, "validation": {env_id: validation}}))
+    common = ["train", "--algo", "ppo", "--env-id", env_id, "--conf", str(conf), "--quiet",
+              "--checkpoint-every", "0", "--timesteps", "1024"]  # fmt: skip
+    assert main([*common, "--out", str(tmp_path / "a")]) == 0
+    run = json.loads((tmp_path / "a/run.json").read_text())
+    assert run["validation"] == validation
+    # Random policies never succeed: the first evaluation stays the best, two more end it.
+    assert run["env_steps"] == 384 and "patience 2" in run["stopped_early"]["reason"]
+    assert run["final"] == "best" and run["final_weights"]["env_steps"] == 128
+    # Flags win; --patience 0 is none.
+    assert main([*common, "--out", str(tmp_path / "b"), "--patience", "0", "--final", "last",
+                 "--eval-every", "512"]) == 0  # fmt: skip
+    run = json.loads((tmp_path / "b/run.json").read_text())
+    assert run["validation"] == {**validation, "every": 512, "patience": None, "final": "last"}
+    assert run["env_steps"] == 1024 and run["final_weights"]["env_steps"] == 1024
+    # No periodic evaluation: nothing to keep the best of, and the recipe's final is moot.
+    assert main([*common, "--out", str(tmp_path / "c"), "--eval-every", "0"]) == 0
+    assert json.loads((tmp_path / "c/run.json").read_text())["validation"]["final"] == "last"
+    # A reproduced old run (no validation record) keeps what it had: the last weights.
+    from panda_rapier.reporting import _reproducing_command
+
+    old = {"algo": "ppo", "env_id": env_id, "recipe": recipe, "final": None,
+           "command": ["panda-rapier", "train", "--algo", "ppo", "--env-id", env_id,
+                       "--conf", str(conf), "--eval-every", "128"]}  # fmt: skip
+    reproduced, _ = _reproducing_command(old, tmp_path / "recipes")
+    assert reproduced == [*old["command"], "--eval-episodes", "100", "--patience", "0",
+                          "--final", "last"]  # fmt: skip
+    # Bad entries are refused before anything runs.
+    for bad in ({"every": -1}, {"final": "first"}, {"episodes": 0}, {"evry": 5}, [1]):
+        conf.write_text(yaml.safe_dump({env_id: recipe, "validation": {env_id: bad}}))
+        with pytest.raises(ConfigError, match="validation"):
+            train("ppo", env_id, tmp_path / "d", conf=conf, progress=False)
+    assert recipe_validation(env_id, None, "ppo")["final"] == "best"  # the package's
+
+
 def test_stop_at_ends_a_run_once_validation_reaches_it() -> None:
     from panda_rapier.training import _Recorder, stop_reason
 
@@ -459,7 +507,10 @@ def test_reproduce_commands_name_the_recipe_an_old_run_used(tmp_path: Path) -> N
     recipes.mkdir()
     # The package's recipe unchanged (rl-zoo3's monitor_kwargs does not count): as recorded.
     run["recipe"].pop("monitor_kwargs", None)
-    assert _reproducing_command(run, recipes) == (command, "")
+    # An old run had 100 episodes and kept its last weights; today's recipe file validates
+    # on 200 and keeps the best: said explicitly.
+    kept = ["--eval-episodes", "100", "--final", "last"]
+    assert _reproducing_command(run, recipes) == ([*command, *kept], "")
     old = {**today, "gamma": 0.5}
     run["recipe"] = old
     command_now, caveat = _reproducing_command(run, recipes)
@@ -476,7 +527,7 @@ def test_reproduce_commands_name_the_recipe_an_old_run_used(tmp_path: Path) -> N
     assert _reproducing_command(named, recipes) == (named["command"], "")
     # A scratch recipe file that is gone, whose recipe is now the package's: no --conf.
     scratch = {**run, "recipe": dict(today), "command": [*command, "--conf", "gone.yml"]}
-    assert _reproducing_command(scratch, recipes) == (command, "")
+    assert _reproducing_command(scratch, recipes) == ([*command, *kept], "")
 
 
 def test_train_tqc_with_her_saves_its_replay_buffer_and_resumes(tmp_path: Path) -> None:

@@ -246,6 +246,59 @@ def test_a_damaged_or_foreign_student_file_is_refused(tiny_run: Path, tmp_path: 
         load_student(damaged)
 
 
+#: A PPO fine-tune of the tiny student on the dense reward, cut to seconds (the shipped recipe
+#: is models/recipes/ppo-student-finetune.yml).
+FINETUNE = {
+    "n_envs": 4,
+    "n_steps": 16,
+    "batch_size": 32,
+    "n_epochs": 1,
+    "learning_rate": 1e-3,
+    "policy_kwargs": "dict(log_std_init=-2.0)",
+    "callback": [{"panda_rapier.finetune.CriticWarmup": {"steps": 128}}],
+}
+
+
+def test_ppo_fine_tunes_a_student_from_its_file(tiny_run: Path, tmp_path: Path) -> None:
+    dense = "panda_rapier/PickAndPlaceDense-v0"
+    recipe = tmp_path / "ppo.yml"
+    recipe.write_text(json.dumps({dense: FINETUNE}))
+    common: dict[str, Any] = {"conf": recipe, "eval_every": 64, "eval_episodes": 2,
+                              "progress": False, "say": lambda _: None}  # fmt: skip
+
+    # Warm-up only: the actor, its encoder included, is the student's to the bit.
+    warm = train("ppo", dense, tmp_path / "warm", timesteps=64, init_from=tiny_run / "model.zip",
+                 **common)  # fmt: skip
+    assert warm["student"] == json.loads((tiny_run / "run.json").read_text())["student"]
+    assert warm["env_kwargs"] == RANDOMISED  # it sees what the student saw
+    source, tuned = load_student(tiny_run / "model.zip"), load_student(tmp_path / "warm/model.zip")
+    env = make_vec_env(dense, n_envs=3, seed=7, **OBSERVATION)
+    obs = env.reset()
+    np.testing.assert_array_equal(source.predict(obs)[0], tuned.predict(obs)[0])
+    values = [m.policy.predict_values(m.policy.obs_to_tensor(obs)[0]) for m in (source, tuned)]
+    assert not th.equal(*values)  # the value function trained
+
+    # Past the warm-up the actor trains; the run checkpoints and resumes like any PPO run.
+    train("ppo", dense, tmp_path / "tuned", timesteps=128, init_from=tiny_run / "model.zip",
+          checkpoint_every=64, **common)  # fmt: skip
+    resumed = train("ppo", dense, tmp_path / "tuned", timesteps=192, resume=True, **common)
+    assert resumed["env_steps"] == 192 and resumed["student"] == warm["student"]
+    after = load_student(tmp_path / "tuned/model.zip")
+    assert not np.array_equal(after.predict(obs)[0], source.predict(obs)[0])
+    env.close()
+    assert cli.main(["eval", "--policy", str(tmp_path / "tuned/model.zip"), "--episodes", "2",
+                     "--quiet"]) == 0  # fmt: skip
+
+    # The network is the student's: a recipe cannot give it another; only PPO fine-tunes it.
+    recipe.write_text(json.dumps({dense: {**FINETUNE, "policy_kwargs": "dict(net_arch=[8])"}}))
+    with pytest.raises(ConfigError, match="may set only"):
+        train("ppo", dense, tmp_path / "c", timesteps=64, init_from=tiny_run / "model.zip",
+              **common)  # fmt: skip
+    with pytest.raises(InvalidArgumentError, match="fine-tuned with ppo"):
+        train("sac", dense, tmp_path / "d", timesteps=64, init_from=tiny_run / "model.zip",
+              conf=recipe, progress=False)  # fmt: skip
+
+
 def test_image_runs_need_a_student_recipe(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="student recipe"):
         train("bc", ENV_ID, tmp_path / "a", env_kwargs=OBSERVATION, progress=False)

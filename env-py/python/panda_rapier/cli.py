@@ -269,10 +269,16 @@ def _parser() -> argparse.ArgumentParser:
     train.add_argument(
         "--eval-every",
         type=_non_negative,
-        default=250_000,
-        help="env steps between evaluations (0: none; bc evaluates after each round)",
+        default=None,
+        help="env steps between evaluations on the validation seeds (0: none; default: the "
+        "recipe file's validation entry, else 250,000; bc evaluates after each round)",
     )
-    train.add_argument("--eval-episodes", type=_positive, default=100)
+    train.add_argument(
+        "--eval-episodes",
+        type=_positive,
+        default=None,
+        help="episodes per evaluation (default: the recipe's validation entry, else 100)",
+    )
     train.add_argument(
         "--checkpoint-every", type=_non_negative, default=500_000, help="env steps (0: none)"
     )
@@ -310,11 +316,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     train.add_argument(
         "--patience",
-        type=_positive,
+        type=_non_negative,
         default=None,
         metavar="N",
         help="stop after N evaluations in a row that do not beat the best one (ranked as "
-        "best.zip is: placed rate, then success rate)",
+        "best.zip is: placed rate, then success rate); 0: never (default: the recipe's "
+        "validation entry, else never)",
     )
     train.add_argument(
         "--stop-at",
@@ -327,9 +334,10 @@ def _parser() -> argparse.ArgumentParser:
     train.add_argument(
         "--final",
         choices=FINAL_CHOICES,
-        default="last",
-        help="what model.zip holds: the weights training ended with (default) or the best "
-        "evaluation's, so a run never ends on a policy that fell back after its best",
+        default=None,
+        help="what model.zip holds: the weights training ended with or the best "
+        "evaluation's, so a run never ends on a policy that fell back after its best "
+        "(default: the recipe's validation entry, else last)",
     )
     train.add_argument(
         "--backend",
@@ -532,6 +540,7 @@ def _run_train(args: argparse.Namespace) -> int:
             trust=args.trust_model_file,
             torch_threads=args.torch_threads,
             update_threads=args.update_threads,
+            default_eval_every=250_000,
         )
     return _report_run(args, run)
 

@@ -338,17 +338,52 @@ def _reproducing_command(run: dict[str, Any], recipes: Path) -> tuple[list[str],
         named = Path(command[at + 1])
         del bare[at : at + 2]
     if trains_alike(None):
-        return bare, ""
+        return _validated_as_recorded(bare, run, None), ""
     for path in sorted(recipes.glob("*.yml")):
         if trains_alike(path):
             at = bare.index("--env-id") + 2 if "--env-id" in bare else len(bare)
-            return [*bare[:at], "--conf", path.as_posix(), *bare[at:]], ""
+            found = [*bare[:at], "--conf", path.as_posix(), *bare[at:]]
+            return _validated_as_recorded(found, run, path), ""
     if named is not None and trains_alike(named):
-        return command, ""
+        return _validated_as_recorded(command, run, named), ""
     return command, (
         f"the {run['algo']} recipe this run read has changed or is not in the repository; the "
         "one it used is the `recipe` entry of `panda_rapier_run.json` in the zip"
     )
+
+
+#: ``panda-rapier train``'s flags for the validation settings
+#: (:data:`panda_rapier.training.VALIDATION_DEFAULTS`' keys).
+_VALIDATION_FLAGS = {"every": "--eval-every", "episodes": "--eval-episodes",
+                     "patience": "--patience", "final": "--final"}  # fmt: skip
+
+
+def _validated_as_recorded(command: list[str], run: dict[str, Any], conf: Path | None) -> list[str]:
+    """``command`` with the validation flags it needs to validate, stop and finish as the
+    run did, where today's recipe file (``conf``, else the package's) would otherwise give
+    other settings than those the run had (runs recorded before recipes carried them had the
+    command line's or the defaults of then: 250,000 steps, 100 episodes, no patience, last)."""
+    from .training import recipe_validation
+
+    if run.get("algo") == "bc" or command[:2] != ["panda-rapier", "train"]:
+        return command
+    if isinstance(run.get("validation"), dict):
+        used = dict(run["validation"])
+    else:
+        used = {"every": 250_000, "episodes": 100, "patience": None,
+                "final": run.get("final") or "last"}  # fmt: skip
+    try:
+        recipe = recipe_validation(run["env_id"], conf, run["algo"])
+    except ConfigError:
+        return command
+    extra: list[str] = []
+    for key, flag in _VALIDATION_FLAGS.items():
+        if flag in command or key not in recipe:
+            continue
+        if recipe[key] != used.get(key):
+            value = used.get(key)
+            extra += [flag, str(0 if value is None else value)]
+    return [*command, *extra]
 
 
 def _saved_as(run: dict[str, Any]) -> str:

@@ -57,13 +57,13 @@ def train(
     seed: int = 0,
     timesteps: int | None = None,
     env_kwargs: Mapping[str, Any] | None = None,
-    eval_every: int = 250_000,
-    eval_episodes: int = 100,
+    eval_every: int | None = None,
+    eval_episodes: int | None = None,
     checkpoint_every: int = 500_000,
     resume: bool = False,
     patience: int | None = None,
     stop_at: float | None = None,
-    final: str = "last",
+    final: str | None = None,
     num_env_runners: int = 2,
     num_envs_per_env_runner: int | None = None,
     num_cpus_per_env_runner: int = 1,
@@ -80,7 +80,9 @@ def train(
     ``run.json``; RLlib checkpoints in ``out/checkpoints`` every ``checkpoint_every`` env
     steps, from which ``resume`` goes on. ``num_envs_per_env_runner`` defaults to the recipe's
     ``n_envs`` shared by the runners. Starts a local Ray on every core unless Ray is running
-    or ``address`` names a cluster."""
+    or ``address`` names a cluster. ``eval_every``, ``eval_episodes``, ``patience`` and
+    ``final`` left ``None`` are the recipe file's (or 250,000 env steps, 100 episodes, none,
+    ``"last"``), as :func:`panda_rapier.training.train` resolves them."""
     from .registration import ENV_IDS, env_config
     from .rllib import ppo_config
     from .training import (
@@ -91,12 +93,19 @@ def train(
         finish_run,
         load_recipe,
         open_run,
+        resolve_validation,
         run_record,
         stop_reason,
     )
 
     if env_id not in ENV_IDS:
         raise ConfigError(f"unknown environment id {env_id!r}; see panda_rapier.ENV_IDS")
+    run_file = Path(out) / "run.json"
+    recorded = json.loads(run_file.read_text()) if resume and run_file.is_file() else None
+    given = {"every": eval_every, "episodes": eval_episodes, "patience": patience, "final": final}
+    settings = resolve_validation("ppo", env_id, conf, recorded, given, 250_000)
+    eval_every, eval_episodes = settings["every"], int(settings["episodes"])
+    patience, final = settings["patience"], str(settings["final"])
     _check_stopping("ppo", eval_every, patience, stop_at, final)
     # The learner updates in this process while the EnvRunners wait (PPO on RLlib samples
     # and updates in turn), so its updates take every core: 1.04 -> 0.88 s per 4,096-step
@@ -131,6 +140,7 @@ def train(
         update_threads=_cpu_count(),
         n_timesteps=total,
         final=final,
+        validation=settings,
     )
     run["versions"]["ray"] = ray.__version__
     state: dict[str, Any] = {

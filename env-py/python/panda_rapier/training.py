@@ -441,7 +441,7 @@ def train(
     num_threads: int | None = None,
     env_kwargs: Mapping[str, Any] | None = None,
     eval_every: int | None = None,
-    eval_episodes: int = 100,
+    eval_episodes: int | None = None,
     checkpoint_every: int | None = None,
     resume: bool = False,
     init_from: str | Path | None = None,
@@ -454,8 +454,9 @@ def train(
     on_evaluation: Callable[[dict[str, Any]], None] | None = None,
     patience: int | None = None,
     stop_at: float | None = None,
-    final: str = "last",
+    final: str | None = None,
     on_checkpoint: Callable[[Path], None] | None = None,
+    default_eval_every: int | None = None,
 ) -> dict[str, Any]:
     """Trains ``algo`` on ``env_id`` with its recipe and writes the run to ``out`` (see the
     module's documentation); returns the run record. ``timesteps`` and ``n_envs`` override
@@ -483,7 +484,12 @@ def train(
     says why in ``stopped_early``. ``final`` chooses what ``model.zip`` holds: ``"last"``, the
     weights training ended with, or ``"best"``, the best evaluation's (``best.zip``'s), so
     that a run's final model is never one that fell back after its best evaluation; the run
-    record's ``final_weights`` says which evaluation's they are."""
+    record's ``final_weights`` says which evaluation's they are.
+
+    ``eval_every``, ``eval_episodes``, ``patience`` and ``final`` left ``None`` take the
+    recipe file's validation entry for ``env_id`` (:func:`recipe_validation`; a resumed run
+    keeps what it recorded), else ``default_eval_every`` (none), 100, none and ``"last"``
+    (:func:`resolve_validation`); the run record keeps them under ``validation``."""
     import torch as th
 
     from .phases import PhaseClock, describe_split
@@ -491,13 +497,24 @@ def train(
 
     if env_id not in ENV_IDS:
         raise ConfigError(f"unknown environment id {env_id!r}; see panda_rapier.ENV_IDS")
-    _check_stopping(algo, eval_every, patience, stop_at, final)
     th.set_num_threads(torch_threads)
     out = Path(out)
     recipe = load_recipe(algo, env_id, conf)
     train_seed = TRAIN_FIRST_SEED + 1_000_000 * int(seed)
     state_file = out / "checkpoints" / "state.json"
+    if resume and (out / "run.json").is_file() and state_file.is_file():
+        recorded = json.loads((out / "run.json").read_text())
+    else:
+        recorded = None
+    given = {"every": eval_every, "episodes": eval_episodes, "patience": patience, "final": final}
+    settings = resolve_validation(algo, env_id, conf, recorded, given, default_eval_every)
+    eval_every, eval_episodes = settings["every"], int(settings["episodes"])
+    patience, final = settings["patience"], str(settings["final"])
+    _check_stopping(algo, eval_every, patience, stop_at, final)
     previous, recipe, options = open_run(out, algo, env_id, resume, recipe, env_kwargs)
+    student = _student_source(algo, previous, init_from)
+    if student is not None:  # a student fine-tuned: it sees what it was trained on
+        options = {**student[1], **options}
     config = env_config(env_id, **split_options(options)[0])
     observation = split_options(options)[1]
     run = run_record(algo, env_id, options, config, recipe, conf, seed, command, previous)
@@ -512,6 +529,10 @@ def train(
         if not Path(init_from).is_file():
             raise InvalidArgumentError(f"--init-from: no model at {init_from}")
         run["init_from"] = {"path": str(init_from), "run": read_run_info(init_from)}
+    if student is not None:
+        run["student"] = student[0]
+    if algo != "bc":
+        run[VALIDATION] = settings
     if algo == "bc":
         if init_from is not None:
             raise InvalidArgumentError("bc runs start from the scripted expert, not --init-from")
@@ -558,6 +579,9 @@ def train(
     # A resumed run's environments start from seeds its first part never used.
     env_seed = train_seed + int(state["num_timesteps"])
     env = make_vec_env(env_id, n_envs=n, seed=env_seed, num_threads=num_threads, **options)
+    kwargs = model_kwargs(algo, recipe)
+    if student is not None:
+        kwargs["policy_kwargs"] = _student_policy_kwargs(student[0], kwargs.get("policy_kwargs"))
     model = algorithm(
         recipe.get("policy", "MultiInputPolicy"),
         env,
@@ -565,7 +589,7 @@ def train(
         device="cpu",
         tensorboard_log=str(out / "tensorboard"),
         verbose=0,
-        **model_kwargs(algo, recipe),
+        **kwargs,
     )
     if resume:
         # Rebuilt from the recorded recipe, then filled from the checkpoint by data alone.
@@ -589,7 +613,7 @@ def train(
         float(state["wall_time_s"]),
         say,
         on_evaluation,
-        observation,
+        plain_observation(observation),
     )
     (out / "run.json").write_text(json.dumps(run, indent=2, default=str))
     run["final"] = final
@@ -631,6 +655,58 @@ def train(
     if remaining > 0:
         periodic.save_checkpoint()  # a later --resume with more --timesteps goes on
     return finish_run(model, out, run, final)
+
+
+#: The ``policy_kwargs`` a recipe may set when it fine-tunes a student: the rest of the
+#: network is the student's (:func:`_student_policy_kwargs`).
+STUDENT_FINETUNE_POLICY_KWARGS = ("log_std_init", "ortho_init")
+
+
+def _student_source(
+    algo: str, previous: Mapping[str, Any] | None, init_from: str | Path | None
+) -> tuple[dict[str, Any], dict[str, Any]] | None:
+    """For an RL run that fine-tunes a student (:mod:`panda_rapier.student`, a policy that
+    sees): its architecture and the observation options it was trained with (taken from the
+    ``--init-from`` model's run record, or from the run's own record when it is resumed);
+    ``None`` for any other run."""
+    if algo == "bc":
+        return None
+    if previous is not None:
+        source: Any = previous if isinstance(previous.get("student"), Mapping) else None
+    elif init_from is not None and Path(init_from).is_file():
+        source = read_run_info(init_from)
+    else:
+        source = None
+    if not isinstance(source, Mapping) or not isinstance(source.get("student"), Mapping):
+        return None
+    if algo != "ppo":
+        raise InvalidArgumentError(
+            f"a student (a policy that sees) is fine-tuned with ppo, not {algo}: its network "
+            "is an actor-critic policy"
+        )
+    from .student_model import student_architecture
+
+    arch = student_architecture(source["student"])
+    options = source.get("env_kwargs")
+    if not isinstance(options, Mapping):
+        raise InvalidArgumentError("the student's run record has no environment options")
+    return arch, split_options(options)[1]
+
+
+def _student_policy_kwargs(arch: Mapping[str, Any], recipe: Mapping[str, Any] | None) -> dict:
+    """The ``policy_kwargs`` of a fine-tuned student: its own network (architecture ``arch``),
+    with the recipe's :data:`STUDENT_FINETUNE_POLICY_KWARGS` (the action noise's start); any
+    other entry in the recipe's would contradict the student's and is a ConfigError."""
+    from .student_model import policy_kwargs
+
+    recipe = dict(recipe or {})
+    other = sorted(set(recipe) - set(STUDENT_FINETUNE_POLICY_KWARGS))
+    if other:
+        raise ConfigError(
+            f"a student's fine-tune takes the student's network; its recipe's policy_kwargs "
+            f"may set only {list(STUDENT_FINETUNE_POLICY_KWARGS)}, not {other}"
+        )
+    return {**policy_kwargs(arch), **recipe}
 
 
 def open_run(
@@ -724,6 +800,91 @@ def finish_run(model: Any, out: Path, run: dict[str, Any], final: str) -> dict[s
 
 #: What ``model.zip`` can hold: the weights training ended with, or the best evaluation's.
 FINAL_CHOICES = ("last", "best")
+
+#: The top-level key of a recipe file under which ``panda-rapier train`` finds how each id's
+#: runs are validated, stopped and finished (rl-zoo3 reads only the ids' own entries, so the
+#: file stays an rl-zoo3 recipe file):
+#:
+#: .. code-block:: yaml
+#:
+#:     validation:
+#:       panda_rapier/StackJointsDense-v0: {every: 262144, episodes: 200, patience: 4, final: best}
+VALIDATION = "validation"
+
+#: What a recipe's validation entry may set, and what each is when nothing sets it:
+#: ``every`` env steps between evaluations on the validation seeds (``None``: no periodic
+#: evaluation; ``panda-rapier train`` makes it 250,000), ``episodes`` per evaluation,
+#: ``patience`` (stop after that many evaluations in a row without a new best; ``None`` or 0:
+#: never) and ``final`` (what ``model.zip`` holds: ``"last"`` or ``"best"``).
+VALIDATION_DEFAULTS: dict[str, Any] = {"every": None, "episodes": 100, "patience": None,
+                                       "final": "last"}  # fmt: skip
+
+
+def recipe_validation(env_id: str, conf: str | Path | None, algo: str) -> dict[str, Any]:
+    """The validation settings the recipe file (``conf``, else the package's for ``algo``)
+    gives ``env_id`` under its top-level :data:`VALIDATION` key; ``{}`` if none. Checked:
+    unknown keys or values of the wrong kind are a :class:`ConfigError`."""
+    path = Path(conf) if conf is not None else default_recipe_path(algo)
+    try:
+        recipes = _yaml().safe_load(path.read_text())
+    except OSError as error:
+        raise ConfigError(f"cannot read the recipe file {path}: {error}") from error
+    table = recipes.get(VALIDATION) if isinstance(recipes, Mapping) else None
+    if table is None:
+        return {}
+    if not isinstance(table, Mapping):
+        raise ConfigError(f"{path}: {VALIDATION} must map environment ids to settings")
+    entry = table.get(env_id)
+    if entry is None:
+        return {}
+    if not isinstance(entry, Mapping) or set(entry) - set(VALIDATION_DEFAULTS):
+        raise ConfigError(
+            f"{path}: {VALIDATION} of {env_id} must be a mapping of "
+            f"{sorted(VALIDATION_DEFAULTS)}, got {entry!r}"
+        )
+    for key in ("every", "episodes", "patience"):
+        value = entry.get(key)
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int)
+                                  or value < (1 if key == "episodes" else 0)):  # fmt: skip
+            raise ConfigError(f"{path}: {VALIDATION} {key} of {env_id} must be a whole number")
+    if "final" in entry and entry["final"] not in FINAL_CHOICES:
+        raise ConfigError(f"{path}: {VALIDATION} final of {env_id} must be one of {FINAL_CHOICES}")
+    return dict(entry)
+
+
+def resolve_validation(
+    algo: str,
+    env_id: str,
+    conf: str | Path | None,
+    previous: Mapping[str, Any] | None,
+    given: Mapping[str, Any],
+    default_every: int | None = None,
+) -> dict[str, Any]:
+    """A run's validation settings (:data:`VALIDATION_DEFAULTS`' keys): each one ``given``
+    (not ``None``) wins; then, for a resumed run, the one it recorded; then the recipe
+    file's (:func:`recipe_validation`); then ``default_every`` for ``every`` and
+    :data:`VALIDATION_DEFAULTS`. A ``patience`` or ``every`` of 0 is none; a run without
+    periodic evaluations keeps only the ``patience`` and ``final`` it was given (which
+    :func:`_check_stopping` then refuses)."""
+    recorded = (previous or {}).get(VALIDATION) or {}
+    # A resumed run goes on as it started; one recorded before runs kept these reads the file.
+    recipe = {} if algo == "bc" or recorded else recipe_validation(env_id, conf, algo)
+    fallback = {**VALIDATION_DEFAULTS, "every": default_every}
+    settings = {}
+    for key, value in fallback.items():
+        for source in (given, recorded, recipe):
+            if source.get(key) is not None:
+                value = source[key]
+                break
+        settings[key] = value
+    if settings["patience"] == 0:
+        settings["patience"] = None
+    if settings["every"] == 0:
+        settings["every"] = None
+    if settings["every"] is None:  # nothing to judge on: only what was asked for stays
+        settings["patience"] = given.get("patience") or None
+        settings["final"] = given.get("final") or "last"
+    return settings
 
 
 def _check_stopping(

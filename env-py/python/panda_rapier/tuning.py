@@ -202,6 +202,10 @@ def sb3_trainable(config: Mapping[str, Any]) -> None:
         eval_episodes=int(settings["eval_episodes"]),
         checkpoint_every=eval_every,
         resume=resume,
+        # Tune's scheduler decides when a trial stops, and what it reports is the last
+        # evaluation: the recipe's patience and final weights are not the trial's.
+        patience=0,
+        final="last",
         torch_threads=int(settings["torch_threads"]),
         progress=False,
         command=["ray.tune", "panda_rapier.tuning.sb3_trainable", str(trial_dir)],
