@@ -254,7 +254,7 @@ FINETUNE = {
     "batch_size": 32,
     "n_epochs": 1,
     "learning_rate": 1e-3,
-    "policy_kwargs": "dict(log_std_init=-2.0)",
+    "policy_kwargs": "dict(log_std_init=-2.0, share_features_extractor=False)",
     "callback": [{"panda_rapier.finetune.CriticWarmup": {"steps": 128}}],
 }
 
@@ -266,10 +266,12 @@ def test_ppo_fine_tunes_a_student_from_its_file(tiny_run: Path, tmp_path: Path) 
     common: dict[str, Any] = {"conf": recipe, "eval_every": 64, "eval_episodes": 2,
                               "progress": False, "say": lambda _: None}  # fmt: skip
 
-    # Warm-up only: the actor, its encoder included, is the student's to the bit.
+    # Warm-up only: the actor, its encoder included, is the student's to the bit; the value
+    # function has its own copy of the encoder (the recipe's share_features_extractor).
     warm = train("ppo", dense, tmp_path / "warm", timesteps=64, init_from=tiny_run / "model.zip",
                  **common)  # fmt: skip
-    assert warm["student"] == json.loads((tiny_run / "run.json").read_text())["student"]
+    student_arch = json.loads((tiny_run / "run.json").read_text())["student"]
+    assert warm["student"] == {**student_arch, "share_features_extractor": False}
     assert warm["env_kwargs"] == RANDOMISED  # it sees what the student saw
     source, tuned = load_student(tiny_run / "model.zip"), load_student(tmp_path / "warm/model.zip")
     env = make_vec_env(dense, n_envs=3, seed=7, **OBSERVATION)
@@ -277,6 +279,10 @@ def test_ppo_fine_tunes_a_student_from_its_file(tiny_run: Path, tmp_path: Path) 
     np.testing.assert_array_equal(source.predict(obs)[0], tuned.predict(obs)[0])
     values = [m.policy.predict_values(m.policy.obs_to_tensor(obs)[0]) for m in (source, tuned)]
     assert not th.equal(*values)  # the value function trained
+    assert not tuned.policy.share_features_extractor
+    pair = (tuned.policy.pi_features_extractor, tuned.policy.vf_features_extractor)
+    encoders = [dict(m.named_parameters()) for m in pair]
+    assert any(not th.equal(encoders[0][k], encoders[1][k]) for k in encoders[0])
 
     # Past the warm-up the actor trains; the run checkpoints and resumes like any PPO run.
     train("ppo", dense, tmp_path / "tuned", timesteps=128, init_from=tiny_run / "model.zip",

@@ -42,11 +42,13 @@ __all__ = [
 
 
 #: The student's network when a recipe does not say: CNN channels and strides (the first
-#: convolution 5x5, the others 3x3) and the actor's and value function's hidden layers.
+#: convolution 5x5, the others 3x3), the actor's and value function's hidden layers, and
+#: whether they share the image encoder (a PPO fine-tune may give the value function its own).
 DEFAULT_ARCHITECTURE: dict[str, Any] = {
     "channels": [16, 32, 32, 16],
     "strides": [2, 2, 1, 1],
     "net_arch": {"pi": [256, 256], "vf": [256, 256]},
+    "share_features_extractor": True,
 }
 
 
@@ -176,10 +178,14 @@ def student_architecture(spec: Any) -> dict[str, Any]:
     strides = ints(arch["strides"], "strides", 1, 4)
     if len(channels) != len(strides):
         raise ConfigError("student channels and strides must have the same length")
+    share = arch["share_features_extractor"]
+    if not isinstance(share, bool):
+        raise ConfigError("student share_features_extractor must be true or false")
     return {
         "channels": channels,
         "strides": strides,
         "net_arch": {k: ints(net[k], f"net_arch {k}", 1, 4096) for k in ("pi", "vf")},
+        "share_features_extractor": share,
     }
 
 
@@ -190,6 +196,7 @@ def policy_kwargs(arch: Mapping[str, Any]) -> dict[str, Any]:
         "features_extractor_kwargs": {"channels": arch["channels"], "strides": arch["strides"]},
         "net_arch": {"pi": arch["net_arch"]["pi"], "vf": arch["net_arch"]["vf"]},
         "activation_fn": nn.ReLU,
+        "share_features_extractor": bool(arch.get("share_features_extractor", True)),
     }
 
 

@@ -529,8 +529,6 @@ def train(
         if not Path(init_from).is_file():
             raise InvalidArgumentError(f"--init-from: no model at {init_from}")
         run["init_from"] = {"path": str(init_from), "run": read_run_info(init_from)}
-    if student is not None:
-        run["student"] = student[0]
     if algo != "bc":
         run[VALIDATION] = settings
     if algo == "bc":
@@ -581,7 +579,9 @@ def train(
     env = make_vec_env(env_id, n_envs=n, seed=env_seed, num_threads=num_threads, **options)
     kwargs = model_kwargs(algo, recipe)
     if student is not None:
-        kwargs["policy_kwargs"] = _student_policy_kwargs(student[0], kwargs.get("policy_kwargs"))
+        run["student"], kwargs["policy_kwargs"] = _student_network(
+            student[0], kwargs.get("policy_kwargs")
+        )
     model = algorithm(
         recipe.get("policy", "MultiInputPolicy"),
         env,
@@ -658,8 +658,8 @@ def train(
 
 
 #: The ``policy_kwargs`` a recipe may set when it fine-tunes a student: the rest of the
-#: network is the student's (:func:`_student_policy_kwargs`).
-STUDENT_FINETUNE_POLICY_KWARGS = ("log_std_init", "ortho_init")
+#: network is the student's (:func:`_student_network`).
+STUDENT_FINETUNE_POLICY_KWARGS = ("log_std_init", "ortho_init", "share_features_extractor")
 
 
 def _student_source(
@@ -693,11 +693,16 @@ def _student_source(
     return arch, split_options(options)[1]
 
 
-def _student_policy_kwargs(arch: Mapping[str, Any], recipe: Mapping[str, Any] | None) -> dict:
-    """The ``policy_kwargs`` of a fine-tuned student: its own network (architecture ``arch``),
-    with the recipe's :data:`STUDENT_FINETUNE_POLICY_KWARGS` (the action noise's start); any
-    other entry in the recipe's would contradict the student's and is a ConfigError."""
-    from .student_model import policy_kwargs
+def _student_network(
+    arch: Mapping[str, Any], recipe: Mapping[str, Any] | None
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The architecture (as the run record keeps it, for :func:`~panda_rapier.student_model.
+    load_student`) and ``policy_kwargs`` of a fine-tuned student: its own network (``arch``),
+    with the recipe's :data:`STUDENT_FINETUNE_POLICY_KWARGS` (the action noise's start;
+    ``share_features_extractor=False`` gives the value function its own copy of the image
+    encoder, so the value loss no longer moves the actor's); any other entry in the recipe's
+    would contradict the student's and is a ConfigError."""
+    from .student_model import policy_kwargs, student_architecture
 
     recipe = dict(recipe or {})
     other = sorted(set(recipe) - set(STUDENT_FINETUNE_POLICY_KWARGS))
@@ -706,7 +711,9 @@ def _student_policy_kwargs(arch: Mapping[str, Any], recipe: Mapping[str, Any] | 
             f"a student's fine-tune takes the student's network; its recipe's policy_kwargs "
             f"may set only {list(STUDENT_FINETUNE_POLICY_KWARGS)}, not {other}"
         )
-    return {**policy_kwargs(arch), **recipe}
+    share = recipe.pop("share_features_extractor", arch.get("share_features_extractor", True))
+    arch = student_architecture({**arch, "share_features_extractor": share})
+    return arch, {**policy_kwargs(arch), **recipe}
 
 
 def open_run(
@@ -940,8 +947,14 @@ def _load_weights(model: Any, path: Path) -> list[str]:
     source_run = read_run_info(path) or {}
     kept: list[str] = []
     if source_run.get("algo") == "bc":
-        kept = sorted(k for k in target if k.startswith(UNTRAINED_BY_CLONING))
-        weights = {k: v for k, v in weights.items() if not k.startswith(UNTRAINED_BY_CLONING)}
+        untrained = UNTRAINED_BY_CLONING
+        if isinstance(source_run.get("student"), Mapping):
+            # A student's image encoder is shared by its actor and value function (its zip
+            # holds it under both names): what cloning trained of it starts both, also when
+            # the fine-tune gives the value function its own copy.
+            untrained = tuple(p for p in untrained if p != "vf_features_extractor.")
+        kept = sorted(k for k in target if k.startswith(untrained))
+        weights = {k: v for k, v in weights.items() if not k.startswith(untrained)}
     shapes = {k: tuple(v.shape) for k, v in weights.items()}
     wanted = {k: tuple(v.shape) for k, v in target.items() if k not in kept}
     if shapes != wanted:
