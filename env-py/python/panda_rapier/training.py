@@ -947,7 +947,7 @@ def _load_weights(model: Any, path: Path) -> list[str]:
     source_run = read_run_info(path) or {}
     kept: list[str] = []
     if source_run.get("algo") == "bc":
-        untrained = UNTRAINED_BY_CLONING
+        untrained: tuple[str, ...] = UNTRAINED_BY_CLONING
         if isinstance(source_run.get("student"), Mapping):
             # A student's image encoder is shared by its actor and value function (its zip
             # holds it under both names): what cloning trained of it starts both, also when
