@@ -86,7 +86,6 @@ def train(
     from .registration import ENV_IDS, env_config
     from .rllib import ppo_config
     from .training import (
-        _check_stopping,
         _cpu_count,
         _Recorder,
         due,
@@ -100,13 +99,10 @@ def train(
 
     if env_id not in ENV_IDS:
         raise ConfigError(f"unknown environment id {env_id!r}; see panda_rapier.ENV_IDS")
-    run_file = Path(out) / "run.json"
-    recorded = json.loads(run_file.read_text()) if resume and run_file.is_file() else None
     given = {"every": eval_every, "episodes": eval_episodes, "patience": patience, "final": final}
-    settings = resolve_validation("ppo", env_id, conf, recorded, given, 250_000)
+    settings = resolve_validation("ppo", env_id, conf, Path(out), resume, given, stop_at, 250_000)
     eval_every, eval_episodes = settings["every"], int(settings["episodes"])
     patience, final = settings["patience"], str(settings["final"])
-    _check_stopping("ppo", eval_every, patience, stop_at, final)
     # The learner updates in this process while the EnvRunners wait (PPO on RLlib samples
     # and updates in turn), so its updates take every core: 1.04 -> 0.88 s per 4,096-step
     # iteration on 2 cores.

@@ -131,16 +131,21 @@ def default_recipe_path(algo: str) -> Path:
     return Path(str(resources.files("panda_rapier") / "hyperparams" / f"{algo}.yml"))
 
 
+def _recipe_file(algo: str, conf: str | Path | None) -> tuple[Path, Any]:
+    """The recipe file ``conf`` (else the package's for ``algo``) and its parsed content."""
+    path = Path(conf) if conf is not None else default_recipe_path(algo)
+    try:
+        return path, _yaml().safe_load(path.read_text())
+    except OSError as error:
+        raise ConfigError(f"cannot read the recipe file {path}: {error}") from error
+
+
 def load_recipe(algo: str, env_id: str, conf: str | Path | None = None) -> dict[str, Any]:
     """The hyperparameters of ``algo`` on ``env_id`` from a recipe file (rl-zoo3's format:
     a mapping from env id to hyperparameters; default: the package's ``hyperparams/ALGO.yml``)."""
     if algo not in ALGORITHMS:
         raise InvalidArgumentError(f"algo must be one of {ALGORITHMS}, got {algo!r}")
-    path = Path(conf) if conf is not None else default_recipe_path(algo)
-    try:
-        recipes = _yaml().safe_load(path.read_text())
-    except OSError as error:
-        raise ConfigError(f"cannot read the recipe file {path}: {error}") from error
+    path, recipes = _recipe_file(algo, conf)
     if not isinstance(recipes, Mapping) or env_id not in recipes:
         known = sorted(recipes) if isinstance(recipes, Mapping) else []
         raise ConfigError(f"{path} has no recipe for {env_id}; it has {known}")
@@ -502,15 +507,11 @@ def train(
     recipe = load_recipe(algo, env_id, conf)
     train_seed = TRAIN_FIRST_SEED + 1_000_000 * int(seed)
     state_file = out / "checkpoints" / "state.json"
-    if resume and (out / "run.json").is_file() and state_file.is_file():
-        recorded = json.loads((out / "run.json").read_text())
-    else:
-        recorded = None
     given = {"every": eval_every, "episodes": eval_episodes, "patience": patience, "final": final}
-    settings = resolve_validation(algo, env_id, conf, recorded, given, default_eval_every)
+    settings = resolve_validation(algo, env_id, conf, out, resume, given, stop_at,
+                                  default_eval_every)  # fmt: skip
     eval_every, eval_episodes = settings["every"], int(settings["episodes"])
     patience, final = settings["patience"], str(settings["final"])
-    _check_stopping(algo, eval_every, patience, stop_at, final)
     previous, recipe, options = open_run(out, algo, env_id, resume, recipe, env_kwargs)
     student = _student_source(algo, previous, init_from)
     if student is not None:  # a student fine-tuned: it sees what it was trained on
@@ -831,11 +832,7 @@ def recipe_validation(env_id: str, conf: str | Path | None, algo: str) -> dict[s
     """The validation settings the recipe file (``conf``, else the package's for ``algo``)
     gives ``env_id`` under its top-level :data:`VALIDATION` key; ``{}`` if none. Checked:
     unknown keys or values of the wrong kind are a :class:`ConfigError`."""
-    path = Path(conf) if conf is not None else default_recipe_path(algo)
-    try:
-        recipes = _yaml().safe_load(path.read_text())
-    except OSError as error:
-        raise ConfigError(f"cannot read the recipe file {path}: {error}") from error
+    path, recipes = _recipe_file(algo, conf)
     table = recipes.get(VALIDATION) if isinstance(recipes, Mapping) else None
     if table is None:
         return {}
@@ -863,17 +860,22 @@ def resolve_validation(
     algo: str,
     env_id: str,
     conf: str | Path | None,
-    previous: Mapping[str, Any] | None,
+    out: Path,
+    resume: bool,
     given: Mapping[str, Any],
+    stop_at: float | None = None,
     default_every: int | None = None,
 ) -> dict[str, Any]:
-    """A run's validation settings (:data:`VALIDATION_DEFAULTS`' keys): each one ``given``
-    (not ``None``) wins; then, for a resumed run, the one it recorded; then the recipe
-    file's (:func:`recipe_validation`); then ``default_every`` for ``every`` and
+    """A run's validation settings (:data:`VALIDATION_DEFAULTS`' keys), checked with
+    ``stop_at`` (:func:`_check_stopping`): each one ``given`` (not ``None``) wins; then, for a
+    run resumed in ``out``, the one it recorded; then the recipe file's
+    (:func:`recipe_validation`); then ``default_every`` for ``every`` and
     :data:`VALIDATION_DEFAULTS`. A ``patience`` or ``every`` of 0 is none; a run without
     periodic evaluations keeps only the ``patience`` and ``final`` it was given (which
     :func:`_check_stopping` then refuses)."""
-    recorded = (previous or {}).get(VALIDATION) or {}
+    run_file = Path(out) / "run.json"
+    previous = json.loads(run_file.read_text()) if resume and run_file.is_file() else {}
+    recorded = previous.get(VALIDATION) or {}
     # A resumed run goes on as it started; one recorded before runs kept these reads the file.
     recipe = {} if algo == "bc" or recorded else recipe_validation(env_id, conf, algo)
     fallback = {**VALIDATION_DEFAULTS, "every": default_every}
@@ -891,6 +893,7 @@ def resolve_validation(
     if settings["every"] is None:  # nothing to judge on: only what was asked for stays
         settings["patience"] = given.get("patience") or None
         settings["final"] = given.get("final") or "last"
+    _check_stopping(algo, settings["every"], settings["patience"], stop_at, settings["final"])
     return settings
 
 
