@@ -32,7 +32,7 @@ from . import __version__
 from .errors import InvalidArgumentError, PandaRapierError
 from .inference import INFERENCE_CHOICES
 from .pixels import RANDOMIZATION_GROUPS, randomization_of
-from .registration import DEFAULT_ENV_ID, ENV_IDS
+from .registration import DEFAULT_ENV_ID, ENV_IDS, task_places, variant
 
 
 def _positive(text: str) -> int:
@@ -554,9 +554,14 @@ def _report_run(args: argparse.Namespace, run: Mapping[str, Any]) -> int:
     last = run.get("last_evaluation")
     if last is not None:
         low, high = last["success_ci95"]
+        placed = (
+            f", placed {last['placed_rate']:.3f}"
+            if task_places(variant(str(run["env_id"]))["task"])
+            else ""
+        )
         print(
-            f"last validation: success {last['success_rate']:.3f} ({low:.3f}-{high:.3f}), "
-            f"placed {last['placed_rate']:.3f} over {last['episodes']} episodes"
+            f"last validation: success {last['success_rate']:.3f} ({low:.3f}-{high:.3f})"
+            f"{placed} over {last['episodes']} episodes"
         )
     weights = run.get("final_weights")
     if run.get("final") == "best" and weights is not None:
@@ -715,7 +720,12 @@ def _run_eval(args: argparse.Namespace) -> int:
         print(f"  visual randomisation {args.visual_randomization} (seed 0)")
     print(
         f"  success rate        {summary['success_rate']:.3f} "
-        f"(95 % CI {low:.3f}-{high:.3f}); cube placed in {summary['placed_rate']:.3f}"
+        f"(95 % CI {low:.3f}-{high:.3f})"
+        + (
+            f"; placed in {summary['placed_rate']:.3f}"
+            if task_places(report.config["task"]["name"])
+            else ""
+        )
     )
     print(f"  mean return         {summary['mean_return']:.3f} +- {summary['std_return']:.3f}")
     print(f"  inference           {report.inference}")

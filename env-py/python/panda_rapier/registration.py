@@ -63,6 +63,12 @@ def variant(env_id: str) -> dict[str, Any]:
     return dict(_VARIANTS[env_id])
 
 
+def task_places(task: str) -> bool:
+    """Whether ``task`` (``"pick_and_place"``, ``"reach"``, ...) has a placed rate: the
+    object also let go of and at rest (``is_placed``)."""
+    return any(bool(t["has_placed"]) for t in TASKS if t["name"] == task)
+
+
 def task_id(task: str, control_mode: str = "ee", reward_type: str = "sparse") -> str:
     """The id of ``task`` (``"pick_and_place"``, ``"reach"``, ...) in an action mode and
     reward type: ``task_id("reach", "joints")`` is ``panda_rapier/ReachJoints-v0``."""

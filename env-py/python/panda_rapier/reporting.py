@@ -19,7 +19,7 @@ from typing import Any
 from .errors import ConfigError, InvalidArgumentError
 from .model_file import read_run_info
 from .pixels import RANDOMIZATION_GROUPS, randomization_of
-from .registration import TASK_NAMES, TASKS, task_id, variant
+from .registration import TASK_NAMES, task_id, task_places, variant
 
 __all__ = ["ROBUSTNESS_CONDITIONS", "models_table", "plot_curves", "robustness_table", "run_label"]
 
@@ -221,7 +221,7 @@ def models_table(
                      f"{wall_time / 60:.1f}", summary)
                 )  # fmt: skip
                 commands.append(_reproduce(model, run, source))
-            places = next(bool(t["has_placed"]) for t in TASKS if t["name"] == task)
+            places = task_places(task)
             sections.append(
                 f"### {TASK_NAMES[task]}, {'joint' if mode == 'joints' else 'end-effector'} "
                 f"control (`{base_id.split('/')[-1]}`)\n\n"

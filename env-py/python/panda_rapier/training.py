@@ -54,7 +54,7 @@ from .model_file import RUN_MEMBER as RUN_MEMBER
 from .model_file import read_run_info as read_run_info
 from .model_file import save_model as save_model
 from .pixels import plain_observation, split_options
-from .registration import ENV_IDS, TASKS, env_config, variant
+from .registration import ENV_IDS, env_config, task_places, variant
 
 __all__ = [
     "ALGORITHMS",
@@ -342,9 +342,14 @@ class _Recorder:
             for key in ("success_rate", "placed_rate", "mean_return"):
                 logger.record(f"eval/{key}", line[key])
         low, high = line["success_ci95"]
+        placed = (
+            f", placed {line['placed_rate']:.3f}"
+            if task_places(variant(str(self.run["env_id"]))["task"])
+            else ""
+        )
         self.say(
             f"[{env_steps:>10,} steps, {wall / 60:6.1f} min] validation success "
-            f"{line['success_rate']:.3f} ({low:.3f}-{high:.3f}), placed {line['placed_rate']:.3f}"
+            f"{line['success_rate']:.3f} ({low:.3f}-{high:.3f}){placed}"
         )
         if self._rank(line):
             best = {**self.run, "evaluation": line}
@@ -371,7 +376,7 @@ def stop_reason(
     ``patience`` evaluations in a row have not beaten the best."""
     if stop_at is not None:
         success = float(line["success_rate"])
-        if _places(str(recorder.run["env_id"])):
+        if task_places(variant(str(recorder.run["env_id"]))["task"]):
             placed = float(line["placed_rate"])
             if min(success, placed) >= stop_at:
                 return (
@@ -383,12 +388,6 @@ def stop_reason(
     if patience is not None and recorder.since_best >= patience:
         return f"{recorder.since_best} evaluations without beating the best (--patience {patience})"
     return None
-
-
-def _places(env_id: str) -> bool:
-    """Whether ``env_id``'s task has a placed rate (the cube also let go and at rest)."""
-    task = variant(env_id)["task"]
-    return any(bool(t["has_placed"]) for t in TASKS if t["name"] == task)
 
 
 def _sb3_callback(
