@@ -490,7 +490,7 @@ def test_ppo_config_follows_the_sb3_recipe() -> None:
     config = ppo_config(DENSE)
     assert config.rl_module_spec.module_class is RecipePPOTorchRLModule
     model = config.model_config
-    assert model["fcnet_hiddens"] == [256, 256] and model["fcnet_activation"] == "relu"
+    assert model["fcnet_hiddens"] == [128, 128] and model["fcnet_activation"] == "relu"
     assert model["free_log_std"] and not model["vf_share_layers"]
     assert (model["log_std_init"], model["min_action_std"], model["action_std_dims"]) == (
         -0.5,
