@@ -5,6 +5,7 @@ network); the students that see act through torch."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from pathlib import Path
@@ -38,6 +39,9 @@ def test_shipped_model_reproduces_its_recorded_evaluation(name: str) -> None:
     from panda_rapier.inference import NATIVE, TORCH, PolicyNetwork, resolve_policy
 
     recorded = json.loads((MODELS / "evaluations.json").read_text())[name]
+    # The record is this file's: a model replaced without regenerating the table fails here.
+    digest = hashlib.sha256((MODELS / name).read_bytes()).hexdigest()
+    assert recorded["model_sha256"] == digest, f"{name} changed since models-table recorded it"
     run = read_run_info(MODELS / name)
     assert run is not None
     if isinstance(run.get("student"), dict):

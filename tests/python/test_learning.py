@@ -8,9 +8,11 @@ directory it writes; each test trains on a tiny budget, so they share the helper
 from __future__ import annotations
 
 import base64
+import hashlib
 import json
 import pickle
 import zipfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -456,7 +458,7 @@ def test_recipes_are_rl_zoo3_files_and_bad_ones_are_refused(tmp_path: Path) -> N
         load_recipe("dqn", "panda_rapier/PickAndPlace-v0")
 
 
-def test_curves_and_models_table(tmp_path: Path) -> None:
+def test_curves_and_models_table(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     conf = _write_recipe(tmp_path / "bc.yml", "bc", {
         "demo_episodes": 4, "dagger_rounds": 1, "dagger_episodes": 4, "epochs": 1,
         "dagger_epochs": 1, "n_envs": 4,
@@ -492,6 +494,42 @@ def test_curves_and_models_table(tmp_path: Path) -> None:
     assert recorded["scripted panda_rapier/PickAndPlace-v0"]["success_rate"] == 1.0
     assert "panda-rapier train --algo bc" in table
     assert "panda-rapier eval --policy random --env-id ID" in table
+    digest = hashlib.sha256((models / "tiny.zip").read_bytes()).hexdigest()
+    assert recorded["tiny.zip"]["model_sha256"] == digest
+    # Run again: every row repeats its episodes, so every record (timings included) stays.
+    evaluations = models / "evaluations.json"
+    first = evaluations.read_text()
+    assert main(["models-table", str(models), "--episodes", "3", "--quiet"]) == 0
+    assert evaluations.read_text() == first
+    capsys.readouterr()
+
+    def table_again(edit: Callable[[dict[str, Any]], None]) -> tuple[dict[str, Any], str]:
+        records = json.loads(first)
+        edit(records["tiny.zip"])
+        evaluations.write_text(json.dumps(records))
+        assert main(["models-table", str(models), "--episodes", "3", "--quiet"]) == 0
+        return json.loads(evaluations.read_text())["tiny.zip"], capsys.readouterr().err
+
+    # Another model file under the same name: a new record.
+    kept, said = table_again(lambda r: r.update(model_sha256="0" * 64))
+    assert kept["model_sha256"] == digest and "tiny.zip: new record (model_sha256 changed)" in said
+
+    def flip_first(r: dict[str, Any]) -> None:
+        flags = r["success_by_episode"]
+        r["success_by_episode"] = ("1" if flags[0] == "0" else "0") + flags[1:]
+
+    # The same environment must repeat every episode: one flipped outcome is not kept.
+    kept, said = table_again(flip_first)
+    assert kept["success_by_episode"] == recorded["tiny.zip"]["success_by_episode"]
+    assert "did not reproduce (per-episode)" in said
+
+    # Recorded on another C library: a statistical check, which one episode passes.
+    def elsewhere(r: dict[str, Any]) -> None:
+        flip_first(r)
+        r["environment"]["libc"] = "musl-1.2"
+
+    kept, said = table_again(elsewhere)
+    assert kept["environment"]["libc"] == "musl-1.2" and said == ""
 
 
 def test_reproduce_commands_name_the_recipe_an_old_run_used(tmp_path: Path) -> None:

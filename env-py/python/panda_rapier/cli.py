@@ -385,7 +385,10 @@ def _parser() -> argparse.ArgumentParser:
         description="Evaluates each MODEL.zip in FOLDER with `panda-rapier eval`'s defaults "
         "(1000 episodes, seeds 0..999, the environment recorded in the model) and writes a "
         "markdown table of algorithm, env id and options, env steps, wall time, success rate "
-        "with its 95 %% interval, placed rate and the command that reproduces each.",
+        "with its 95 %% interval, placed rate and the command that reproduces each. A row "
+        "keeps its record in evaluations.json where the same model file, evaluated again, "
+        "repeats every episode, or (float32 models on another CPU) lands within the "
+        "recorded intervals; rows whose record changed are listed on stderr.",
     )
     table.add_argument("folder", type=Path)
     table.add_argument("--out", type=Path, default=None, help="default: FOLDER/README.md")
@@ -581,9 +584,20 @@ def _run_models_table(args: argparse.Namespace) -> int:
     from .reporting import models_table
 
     out = args.out or args.folder / "README.md"
-    text, records = models_table(args.folder, episodes=args.episodes, progress=not args.quiet)
-    out.write_text(text)
     evaluations = out.parent / "evaluations.json"
+    previous = None
+    if evaluations.exists():
+        try:
+            previous = json.loads(evaluations.read_text())
+        except (OSError, ValueError) as error:
+            raise InvalidArgumentError(f"cannot read {evaluations}: {error}") from error
+        if not isinstance(previous, dict):
+            raise InvalidArgumentError(f"{evaluations} is not a JSON object of records")
+    text, records = models_table(
+        args.folder, episodes=args.episodes, progress=not args.quiet, previous=previous,
+        say=lambda line: print(line, file=sys.stderr),
+    )  # fmt: skip
+    out.write_text(text)
     evaluations.write_text(json.dumps(records, indent=1, sort_keys=True) + "\n")
     print(text)
     print(f"table written to {out}, every episode's outcome to {evaluations}")

@@ -10,13 +10,15 @@ is typed by hand.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shlex
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from .errors import ConfigError, InvalidArgumentError
+from .evaluation import EvaluationReport, check_reproduction
 from .model_file import read_run_info
 from .pixels import RANDOMIZATION_GROUPS, randomization_of
 from .registration import TASK_NAMES, task_id, task_places, variant
@@ -126,10 +128,10 @@ def _evaluate_row(
     progress: bool,
     label: str,
     visual_randomization: str = "off",
-) -> tuple[dict[str, Any], list[Any]]:
+) -> EvaluationReport:
     """``panda-rapier eval --policy SPEC [--env-id ENV_ID] --episodes EPISODES
     [--visual-randomization NAME]`` as a library call (the same resolution of the policy and
-    its environment): the summary and the episodes."""
+    its environment): the report."""
     from tqdm import tqdm
 
     from .evaluation import evaluate
@@ -148,7 +150,7 @@ def _evaluate_row(
             **observation,
         )
     report.policy = resolved.label
-    return report.summary(), report.episodes
+    return report
 
 
 def _group_of(env_id: str) -> tuple[str, str]:
@@ -157,7 +159,11 @@ def _group_of(env_id: str) -> tuple[str, str]:
 
 
 def models_table(
-    folder: Path, episodes: int = 1000, progress: bool = True
+    folder: Path,
+    episodes: int = 1000,
+    progress: bool = True,
+    previous: Mapping[str, Any] | None = None,
+    say: Callable[[str], None] | None = None,
 ) -> tuple[str, dict[str, Any]]:
     """The benchmark table of ``folder``'s README and the evaluations behind it.
 
@@ -168,8 +174,13 @@ def models_table(
     training run uses.
 
     Returns the markdown and the evaluations: per row, the summary and each episode's success
-    and placed flags as strings of 0 and 1. A model's key is its file name; a baseline's is
-    ``"random panda_rapier/Reach-v0"``."""
+    and placed flags as strings of 0 and 1 (and a model's ``model_sha256``). A model's key is
+    its file name; a baseline's is ``"random panda_rapier/Reach-v0"``.
+
+    ``previous`` (the evaluations an earlier call returned) keeps a row's earlier record
+    where this evaluation reproduces it (:func:`kept_record`): where the model and the
+    episodes are the same, a row's figures change only with its outcome, not with the
+    machine that ran the table. ``say`` is told of every row whose record changed."""
     from tqdm import tqdm
 
     models = sorted(Path(folder).glob("*.zip"))
@@ -194,10 +205,16 @@ def models_table(
     with tqdm(total=total, desc="rows", unit="row", disable=not progress) as rows_bar:
 
         def evaluated(key: str, spec: str, env_id: str | None) -> dict[str, Any]:
-            summary, episodes_run = _evaluate_row(spec, env_id, episodes, progress, key)
-            records[key] = _record(summary, episodes_run)
+            report = _evaluate_row(spec, env_id, episodes, progress, key)
+            record = _record(report.summary(), report.episodes)
+            if env_id is None:
+                record["model_sha256"] = hashlib.sha256(Path(spec).read_bytes()).hexdigest()
+            earlier = (previous or {}).get(key)
+            records[key], why = kept_record(earlier, record, report)
+            if say is not None and records[key] is record and earlier is not None:
+                say(f"{key}: new record ({why})")
             rows_bar.update(1)
-            return summary
+            return records[key]
 
         for task, mode in groups:
             base_id = task_id(task, mode)
@@ -241,6 +258,34 @@ def models_table(
         + "\n"
     )
     return text, records
+
+
+#: Record fields that say what was evaluated: a record is kept only where they are unchanged.
+_SAME_EVALUATION = ("model_sha256", "episodes", "first_seed", "max_episode_steps")
+
+
+def kept_record(
+    earlier: Mapping[str, Any] | None, new: dict[str, Any], report: EvaluationReport
+) -> tuple[dict[str, Any], str]:
+    """The record a models table keeps for a row evaluated again (``new``, made from
+    ``report``), and why.
+
+    The earlier record stays where the same model file (``model_sha256``) was evaluated on
+    the same episodes and the new evaluation reproduces it as :func:`~panda_rapier.
+    evaluation.check_reproduction` defines it: every episode repeated where the outcome's
+    environment matches (the time and the machine of the first evaluation are kept), the
+    rates within the statistical test elsewhere (a float32 model on another CPU). Otherwise
+    the new record replaces it: a retrained model, other episodes, or an evaluation that did
+    not reproduce the earlier one."""
+    if earlier is None:
+        return new, "no earlier record"
+    for key in _SAME_EVALUATION:
+        if earlier.get(key) != new.get(key):
+            return new, f"{key} changed"
+    check = check_reproduction(earlier, report)
+    if check.passed:
+        return dict(earlier), f"reproduced ({check.kind}): {check.details}"
+    return new, f"did not reproduce ({check.kind}): {check.details}"
 
 
 def _record(summary: dict[str, Any], episodes: Sequence[Any]) -> dict[str, Any]:
@@ -431,10 +476,11 @@ def robustness_table(
     with tqdm(total=total, desc="evaluations", unit="eval", disable=not progress) as bar:
         for model in models:
             for condition in ROBUSTNESS_CONDITIONS:
-                summary, run_episodes = _evaluate_row(
+                report = _evaluate_row(
                     str(model), None, episodes, progress, f"{model.stem} {condition}", condition
                 )
-                records[f"{model.name} {condition}"] = _record(summary, run_episodes)
+                summary = report.summary()
+                records[f"{model.name} {condition}"] = _record(summary, report.episodes)
                 low, high = summary["success_ci95"]
                 cells[model.name, condition] = (
                     f"{summary['success_rate']:.3f} ({low:.3f}-{high:.3f}) / "
