@@ -425,6 +425,33 @@ def test_fine_tuning_a_cloned_policy_takes_its_actor_and_warms_the_critic_up(
     assert not all(th.equal(later[k], source[k]) for k in actor)
 
 
+def test_patience_counts_from_the_end_of_the_critic_warm_up(tmp_path: Path) -> None:
+    """Evaluations while CriticWarmup keeps the actor frozen show the policy the run started
+    from; they are marked and do not count towards --patience, so a patience shorter than
+    the warm-up does not end the run before the actor has trained."""
+    cloned = Path(__file__).resolve().parents[2] / "models" / "bc-dagger-Reach-v0.zip"
+    recipe = {
+        "n_envs": 2, "n_steps": 16, "batch_size": 32, "n_epochs": 1,
+        "policy_kwargs": "dict(features_extractor_class=NormalizedFlatten, net_arch=dict("
+                         "pi=[256, 256, 256], vf=[16]), activation_fn=nn.ReLU, log_std_init=-2.0)",
+        "callback": [{"panda_rapier.finetune.CriticWarmup": {"steps": 100}}],
+    }  # fmt: skip
+    conf = tmp_path / "ppo.yml"
+    conf.write_text(yaml.safe_dump({"panda_rapier/ReachDense-v0": recipe}))
+    out = tmp_path / "run"
+    assert main(["train", "--algo", "ppo", "--env-id", "panda_rapier/ReachDense-v0",
+                 "--conf", str(conf), "--quiet", "--eval-every", "32", "--eval-episodes", "2",
+                 "--patience", "1", "--checkpoint-every", "0", "--timesteps", "256",
+                 "--out", str(out), "--init-from", str(cloned)]) == 0  # fmt: skip
+    lines = [json.loads(x) for x in (out / "evaluations.jsonl").read_text().splitlines()]
+    frozen = [line["env_steps"] for line in lines if line.get("actor_frozen")]
+    # Rollouts of 32 steps: the actor trains from the update after the rollout that ends at
+    # 128 steps, so the evaluations at 32 .. 128 saw the cloned actor (all alike: without the
+    # rule, --patience 1 would have stopped the run at 64 steps).
+    assert frozen == [32, 64, 96, 128]
+    assert lines[-1]["env_steps"] > 128 and "actor_frozen" not in lines[-1]
+
+
 def test_critic_warmup_refuses_what_it_cannot_do() -> None:
     from sb3_contrib import TQC
 

@@ -298,13 +298,16 @@ class _Recorder:
 
     def _rank(self, line: Mapping[str, Any]) -> bool:
         """Ranks an evaluation against the best so far (placed rate, then success rate, as
-        ``best.zip`` is chosen); True if it is the new best."""
+        ``best.zip`` is chosen); True if it is the new best. An evaluation made while the
+        actor was frozen (``actor_frozen``: a critic warm-up) can be the best but does not
+        count towards ``--patience``: patience counts from the warm-up's end."""
         key = (float(line["placed_rate"]), float(line["success_rate"]))
         if self.best is None or key > self.best:
             self.best = key
             self.since_best = 0
             return True
-        self.since_best += 1
+        if not line.get("actor_frozen"):
+            self.since_best += 1
         return False
 
     def wall_time(self) -> float:
@@ -336,6 +339,8 @@ class _Recorder:
             "placed_rate": summary["placed_rate"],
             "mean_return": summary["mean_return"],
         }
+        if actor_frozen(model):
+            line["actor_frozen"] = True
         with (self.out / "evaluations.jsonl").open("a") as file:
             file.write(json.dumps(line) + "\n")
         if logger is not None:
@@ -922,6 +927,16 @@ def _check_stopping(
 
 #: Parameter-name prefixes of the value function in SB3's actor-critic policies.
 VALUE_PREFIXES = ("mlp_extractor.value_net.", "value_net.", "vf_features_extractor.")
+
+
+def actor_frozen(model: Any) -> bool:
+    """Whether ``model``'s action head takes no gradient: a value-function warm-up
+    (:class:`panda_rapier.finetune.CriticWarmup`) is under way, so its evaluations show the
+    policy it started from and ``--patience`` does not count them."""
+    head = getattr(getattr(model, "policy", None), "action_net", None)
+    parameters = list(head.parameters()) if head is not None else []
+    return bool(parameters) and not any(p.requires_grad for p in parameters)
+
 
 #: The parameters a cloned policy (``--algo bc``) never trained: behaviour cloning fits the
 #: action mean only, so its value function and action noise are the network's initial ones.
