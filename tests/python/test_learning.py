@@ -186,6 +186,8 @@ def test_train_bc_writes_a_run_that_eval_reads_without_flags(
     assert run["env_steps"] == 16 * 60 and run["saved_algo"] == "ppo"
     assert {"panda_rapier", "torch", "stable_baselines3"} <= set(run["versions"])
     assert run["command"][:3] == ["panda-rapier", "train", "--algo"]
+    # Which CPU the wall time was measured on.
+    assert run["machine"]["cpus"] >= 1 and run["machine"]["cpu"] and "cpu_flags" in run["machine"]
     lines = [json.loads(x) for x in (out / "evaluations.jsonl").read_text().splitlines()]
     assert [x["env_steps"] for x in lines] == [8 * 60, 16 * 60, 16 * 60]  # and the final fit
     assert all(0 <= x["success_ci95"][0] <= x["success_rate"] <= x["success_ci95"][1]

@@ -780,12 +780,22 @@ def run_record(
         "validation_first_seed": VALIDATION_FIRST_SEED,
         "command": command if command is not None else sys.argv,
         "versions": versions(),
-        "machine": {"cpus": _cpu_count(), "platform": platform.platform()},
+        "machine": _machine(),
     }
     if previous is not None:
         run["command"] = previous.get("command", run["command"])
         run["resumed_with"] = [*previous.get("resumed_with", []), command or sys.argv]
     return run
+
+
+def _machine() -> dict[str, Any]:
+    """Where a run trains, for reading its wall time: the cores it may use, the platform, and
+    the CPU's model and vector extensions (as evaluation reports record them)."""
+    from .evaluation import evaluation_environment
+
+    found = evaluation_environment("training")
+    return {"cpus": _cpu_count(), "platform": platform.platform(), "cpu": found["cpu"],
+            "cpu_flags": found["cpu_flags"]}  # fmt: skip
 
 
 def due(state: dict[str, Any], key: str, every: int | None, steps: int) -> bool:
