@@ -561,6 +561,19 @@ def test_curves_and_models_table(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert kept["environment"]["libc"] == "musl-1.2" and said == ""
 
 
+def test_run_labels_tell_seeds_and_recipe_files_apart() -> None:
+    """Curves of several runs of one id need legends that differ: a seed other than 0 and a
+    recipe file other than the package's are named."""
+    from panda_rapier.reporting import run_label
+
+    run = {"algo": "ppo", "env_id": "panda_rapier/PickAndPlaceDense-v0", "seed": 0,
+           "env_kwargs": {"reward_weights": {"release": 1.0}},
+           "recipe_file": "panda_rapier/hyperparams/ppo.yml"}  # fmt: skip
+    assert run_label(run) == "ppo PickAndPlaceDense-v0 (dynamic arm, release=1.0)"
+    assert run_label({**run, "seed": 2}).endswith("release=1.0, seed 2)")
+    assert run_label({**run, "recipe_file": "/tmp/x/ppo-e128.yml"}).endswith(", recipe ppo-e128)")
+
+
 def test_reproduce_commands_name_the_recipe_an_old_run_used(tmp_path: Path) -> None:
     """A run that read the package's recipe before it changed is reproduced with the recipe
     file in the models folder's ``recipes/`` that trains alike (passed as ``--conf``)."""

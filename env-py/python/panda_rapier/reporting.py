@@ -36,15 +36,24 @@ def _evaluations(run: Path) -> list[dict[str, Any]]:
 
 
 def run_label(run: dict[str, Any]) -> str:
-    """A short name of a run: algorithm, task variant, arm and non-default options."""
+    """A short name of a run: algorithm, task variant, arm, non-default options, and what
+    tells runs of one id apart: a seed other than 0 and a recipe file other than the
+    package's."""
     env = str(run.get("env_id", "?")).split("/")[-1]
     options = dict(run.get("env_kwargs") or {})
     arm = options.pop("arm", "dynamic")
     weights = options.pop("reward_weights", None) or {}  # shown as term=weight
     options.update({str(k): v for k, v in dict(weights).items()})
-    extra = ", ".join(f"{k}={v}" for k, v in sorted(options.items()))
-    tuned = ", fine-tuned" if run.get("init_from") else ""
-    return f"{_trainer(run)} {env} ({arm} arm{tuned}{', ' + extra if extra else ''})"
+    parts = [f"{arm} arm"]
+    if run.get("init_from"):
+        parts.append("fine-tuned")
+    parts += [f"{k}={v}" for k, v in sorted(options.items())]
+    if run.get("seed"):
+        parts.append(f"seed {run['seed']}")
+    recipe = str(run.get("recipe_file") or "")
+    if recipe and not recipe.startswith("panda_rapier/hyperparams/"):
+        parts.append(f"recipe {Path(recipe).stem}")
+    return f"{_trainer(run)} {env} ({', '.join(parts)})"
 
 
 def _trainer(run: Mapping[str, Any]) -> str:
