@@ -132,17 +132,35 @@ fn every_task_refuses_bad_input_with_typed_errors() {
 #[test]
 fn every_task_reproduces_its_step_rewards_from_goals_and_infos() {
     for &task in TaskKind::ALL {
-        for reward_type in [RewardType::Sparse, RewardType::Dense] {
-            let mut env = PandaEnv::new(config(task, ControlMode::Ee, reward_type)).unwrap();
+        // The dense reward with its default weights, and with every term on (the terms that
+        // are off by default, such as `release` and Stack's `lift`, included).
+        for (reward_type, all_terms) in [
+            (RewardType::Sparse, false),
+            (RewardType::Dense, false),
+            (RewardType::Dense, true),
+        ] {
+            let mut config = config(task, ControlMode::Ee, reward_type);
+            if all_terms {
+                let names = PandaEnv::new(config.clone())
+                    .unwrap()
+                    .task()
+                    .descriptor()
+                    .reward_terms;
+                config.reward_weights = names.iter().map(|t| (t.name.to_string(), 1.5)).collect();
+            }
+            let mut env = PandaEnv::new(config).unwrap();
             let layout = env.layout().clone();
             let mut policy = ScriptedPolicy::new(env.config()).unwrap();
             let mut rng = ChaCha8Rng::seed_from_u64(4);
             let (mut achieved, mut desired, mut contexts, mut rewards) =
                 (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+            let keys = env.task().descriptor().reward_context_keys;
+            let lift_key = keys.iter().position(|k| *k == "reward_lift");
+            let mut most_lift = 0.0f32;
             for episode in 0..2 {
                 env.reset(Some(episode), &ResetOptions::default()).unwrap();
                 let mut action = vec![0.0; env.action_dim()];
-                for step in 0..40 {
+                for step in 0..80 {
                     // Expert and random steps, so successes and failures are both covered.
                     if step % 3 == 0 {
                         action = random_actions(&mut rng, env.action_dim());
@@ -152,9 +170,11 @@ fn every_task_reproduces_its_step_rewards_from_goals_and_infos() {
                     let t = env.step(&action).unwrap();
                     achieved.extend_from_slice(&env.observation()[layout.achieved_goal()]);
                     desired.extend_from_slice(&env.observation()[layout.desired_goal()]);
-                    let keys = env.task().descriptor().reward_context_keys;
                     let mut row = vec![0.0f32; keys.len()];
                     t.info.reward_context(keys, &mut row);
+                    if let Some(k) = lift_key {
+                        most_lift = most_lift.max(row[k]);
+                    }
                     contexts.extend(row);
                     rewards.push(t.reward);
                 }
@@ -167,6 +187,10 @@ fn every_task_reproduces_its_step_rewards_from_goals_and_infos() {
                 .zip(&rewards)
                 .all(|(a, b)| a.to_bits() == b.to_bits());
             assert!(same, "{task:?} {reward_type:?}: compute_reward differs");
+            // A lift term read back from the info pays once the expert lifts the cube.
+            if all_terms && lift_key.is_some() {
+                assert!(most_lift > 0.0, "{task:?}: the lift term never paid");
+            }
             // Relabelled with the achieved goal (HER): success, and never less reward.
             let mut relabelled = vec![0.0; rewards.len()];
             env.compute_rewards(&achieved, &achieved, &contexts, &mut relabelled)

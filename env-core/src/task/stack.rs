@@ -39,10 +39,14 @@
 //! larger of the two distances). `is_placed`: besides, no robot link touches either cube, both
 //! are at rest, cube1 touches the platform and cube2 touches cube1. `sparse`: -1 until success,
 //! then 0. `dense`: `reach` (`1 - tanh(5 d)`, `d` from the TCP to the first cube not at its
-//! goal) + `grasp` (either cube squeezed by both fingers) + `carry` times the mean of
-//! `1 - tanh(5 d_i)` over the two cubes + `place` once placed, each with its
-//! `reward_weights` entry. The info's `cube_*` flags describe the pair (released: neither cube
-//! touched; at rest: both; on platform: stacked as above); `reward_lift` is 0.
+//! goal) + `grasp` (either cube squeezed by both fingers) + `lift` (that cube's height above
+//! its floor resting height over the platform's height, clipped to [0, 1]; weight 0 unless
+//! `reward_weights` sets one) + `carry` times the mean of `1 - tanh(5 d_i)` over the two
+//! cubes + `place` once placed, each with its `reward_weights` entry. Without `lift`, lifting
+//! a cube off the floor earns nothing until it nears its goal; two PPO runs from scratch
+//! grasped a cube in every episode and never carried one (`docs/training.md`). The info's
+//! `cube_*` flags describe the pair (released: neither cube touched; at rest: both; on
+//! platform: stacked as above).
 
 use nalgebra::Vector3;
 use rand::Rng;
@@ -63,14 +67,14 @@ use crate::task::observation::{info_field, InfoField, InfoType};
 use crate::task::pick_and_place::{
     cube_task_info, norm, term_field, write_cube_slots, IS_GRASPED, IS_LIFTED,
 };
-use crate::task::reward::cube_terms::{CARRY, GRASP, PLACE, REACH};
+use crate::task::reward::cube_terms::{self, CARRY, GRASP, PLACE, REACH};
 use crate::task::reward::{
-    closeness, compute_batch_with, GoalVerdict, RewardContext, RewardFunction, RewardTerms,
-    RewardWeights,
+    closeness, compute_batch_with, GoalVerdict, RewardContext, RewardFunction, RewardTerm,
+    RewardTerms, RewardWeights,
 };
 
 /// The task's own info entries.
-const INFO_FIELDS: [InfoField; 10] = [
+const INFO_FIELDS: [InfoField; 11] = [
     IS_GRASPED,
     IS_LIFTED,
     info_field(
@@ -80,6 +84,7 @@ const INFO_FIELDS: [InfoField; 10] = [
     ),
     term_field(REACH),
     term_field(GRASP),
+    term_field(LIFT),
     term_field(CARRY),
     term_field(PLACE),
     info_field(
@@ -99,10 +104,20 @@ const INFO_FIELDS: [InfoField; 10] = [
     ),
 ];
 
+/// `lift`: pick-and-place's term for the cube being handled (the first not at its goal); off
+/// by default, so the dense ids' default reward is the one their version was given with.
+const LIFT: RewardTerm = RewardTerm {
+    default_weight: 0.0,
+    description: "height above its floor resting height of the first cube not at its goal, \
+                  over the platform's height, clipped to [0, 1] (off by default)",
+    ..cube_terms::LIFT
+};
+
 /// The reward's inputs that `compute_reward` reads back.
-const CONTEXT_KEYS: [&str; 5] = [
+const CONTEXT_KEYS: [&str; 6] = [
     "reward_reach",
     "reward_grasp",
+    "reward_lift",
     "cube_released",
     "cube_at_rest",
     "cube_on_platform",
@@ -197,7 +212,7 @@ impl TaskSpec for Stack {
         has_platform: true,
         summary: "stack two cubes on the goal on the platform",
         info_fields: &INFO_FIELDS,
-        reward_terms: &[REACH, GRASP, CARRY, PLACE],
+        reward_terms: &[REACH, GRASP, LIFT, CARRY, PLACE],
         reward_context_keys: &CONTEXT_KEYS,
     };
 
@@ -269,7 +284,7 @@ impl Stack {
                 let terms = RewardTerms {
                     reach: context.reach,
                     grasp: context.grasp,
-                    lift: 0.0,
+                    lift: context.lift,
                     carry: w.carry as f32 * (closeness(d[0]) + closeness(d[1])) / 2.0,
                     place: if is_placed { w.place as f32 } else { 0.0 },
                     release: 0.0,
@@ -418,12 +433,21 @@ impl Task for Stack {
         let desired = &obs[l.desired_goal()];
         let first_done =
             RewardFunction::distance(&achieved[..3], &desired[..3]) < self.config.success_threshold;
-        let reach_distance = norm(slot(usize::from(first_done), RELATIVE_POSITION));
+        let handled = usize::from(first_done);
+        let reach_distance = norm(slot(handled, RELATIVE_POSITION));
+        let platform_height = self.section.platform.top_center[2];
+        let lift = if platform_height > 0.0 {
+            let (size, _, _) = view.sim.object_properties([c1, c2][handled]);
+            let z = achieved[3 * handled + 2] as f64;
+            ((z - size / 2.0) / platform_height).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         let w = &self.weights;
         let context = RewardContext {
             reach: w.reach as f32 * closeness(reach_distance),
             grasp: if is_grasped { w.grasp as f32 } else { 0.0 },
-            lift: 0.0,
+            lift: w.lift as f32 * lift as f32,
             cube_released: !touch[0].robot_touching() && !touch[1].robot_touching(),
             cube_at_rest: at_rest(0) && at_rest(1),
             cube_on_platform: touch[0].platform && touch[1].touches(c1),
