@@ -43,8 +43,9 @@
 //! its floor resting height over the platform's height, clipped to [0, 1]; weight 0 unless
 //! `reward_weights` sets one) + `carry` times the mean of `1 - tanh(5 d_i)` over the two
 //! cubes + `place` once placed, each with its `reward_weights` entry. Without `lift`, lifting
-//! a cube off the floor earns nothing until it nears its goal; two PPO runs from scratch
-//! grasped a cube in every episode and never carried one (`docs/training.md`). The info's
+//! a cube pays only through its distance to a goal 0.2-0.5 m away: PPO from scratch carried
+//! cube1 to its goal in at most 4 % of episodes without it, 14 % with it (`docs/training.md`,
+//! 2026-11-27; neither stacked). The info's
 //! `cube_*` flags describe the pair (released: neither cube touched; at rest: both; on
 //! platform: stacked as above).
 
