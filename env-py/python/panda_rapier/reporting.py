@@ -23,7 +23,14 @@ from .model_file import read_run_info
 from .pixels import RANDOMIZATION_GROUPS, randomization_of
 from .registration import TASK_NAMES, task_id, task_places, variant
 
-__all__ = ["ROBUSTNESS_CONDITIONS", "models_table", "plot_curves", "robustness_table", "run_label"]
+__all__ = [
+    "ROBUSTNESS_CONDITIONS",
+    "kept_record",
+    "models_table",
+    "plot_curves",
+    "robustness_table",
+    "run_label",
+]
 
 
 def _evaluations(run: Path) -> list[dict[str, Any]]:
