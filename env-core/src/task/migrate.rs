@@ -353,8 +353,14 @@ const LEGACY_WEIGHTS: [(&str, f64); 6] = [
     ("release", 0.0),
 ];
 
+/// Terms a task's reward gained after 0.2, under a name every task took before 0.2. A
+/// configuration dumped before 0.2 (it holds all six [`LEGACY_WEIGHTS`] names) carries them
+/// with a weight that did nothing then: it is dropped, so the task's default (off) applies.
+pub(crate) const TERMS_ADDED_AFTER_0_2: [(TaskKind, &str); 1] = [(TaskKind::Stack, "lift")];
+
 /// Drops from `document`'s `reward_weights` the terms the task's reward does not have but
 /// every task took before 0.2, when they hold their old default (a dumped configuration),
+/// and, from such a dump, the terms the task gained since ([`TERMS_ADDED_AFTER_0_2`]),
 /// noting each; any other value is left for validation to refuse (it would do nothing).
 pub(crate) fn migrate_reward_weights(document: &mut Value) -> Result<Vec<Deprecation>> {
     let kind = match document.get("task") {
@@ -379,7 +385,22 @@ pub(crate) fn migrate_reward_weights(document: &mut Value) -> Result<Vec<Depreca
         return Ok(Vec::new());
     };
     let terms = kind.descriptor().reward_terms;
+    let legacy_dump = LEGACY_WEIGHTS
+        .iter()
+        .all(|(name, _)| weights.contains_key(*name));
     let mut notes = Vec::new();
+    for (task, name) in TERMS_ADDED_AFTER_0_2 {
+        if legacy_dump && task == kind && weights.remove(name).is_some() {
+            notes.push(Deprecation {
+                key: format!("reward_weights.{name}"),
+                message: format!(
+                    "reward_weights.{name} is ignored: these weights were dumped before 0.2, \
+                     when the {kind} task's reward had no {name:?} term (it is off by default \
+                     now; set it in a configuration of today's form to use it)"
+                ),
+            });
+        }
+    }
     for (name, old_default) in LEGACY_WEIGHTS {
         if terms.iter().any(|t| t.name == name) {
             continue;
@@ -411,6 +432,22 @@ mod tests {
             task: task.into(),
             ..EnvConfig::default()
         }
+    }
+
+    #[test]
+    fn a_term_added_after_0_2_is_off_in_a_dump_from_before_and_on_where_set_today() {
+        let dumped = r#"{"task": "stack", "reward_weights": {"reach": 1.0, "grasp": 1.0,
+            "lift": 1.0, "carry": 2.0, "place": 5.0, "release": 0.0}}"#;
+        let (config, notes) = EnvConfig::from_json_with_notes(dumped).unwrap();
+        assert_eq!(config.reward_weights_resolved()["lift"], 0.0);
+        assert!(
+            notes.iter().any(|n| n.key == "reward_weights.lift"),
+            "{notes:?}"
+        );
+        let today = r#"{"task": "stack", "reward_weights": {"lift": 1.0, "carry": 4.0}}"#;
+        let (config, notes) = EnvConfig::from_json_with_notes(today).unwrap();
+        assert_eq!(config.reward_weights_resolved()["lift"], 1.0);
+        assert!(notes.is_empty(), "{notes:?}");
     }
 
     #[test]
