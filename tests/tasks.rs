@@ -141,12 +141,8 @@ fn every_task_reproduces_its_step_rewards_from_goals_and_infos() {
         ] {
             let mut config = config(task, ControlMode::Ee, reward_type);
             if all_terms {
-                let names = PandaEnv::new(config.clone())
-                    .unwrap()
-                    .task()
-                    .descriptor()
-                    .reward_terms;
-                config.reward_weights = names.iter().map(|t| (t.name.to_string(), 1.5)).collect();
+                let terms = task.descriptor().reward_terms;
+                config.reward_weights = terms.iter().map(|t| (t.name.to_string(), 1.5)).collect();
             }
             let mut env = PandaEnv::new(config).unwrap();
             let layout = env.layout().clone();

@@ -391,6 +391,19 @@ def test_train_init_from_starts_from_another_models_weights(tmp_path: Path) -> N
     assert marker.exists()
 
 
+def _warm_up_recipe(path: Path, env_id: str, n_epochs: int) -> Path:
+    """A tiny PPO recipe that fine-tunes a cloned policy (its 3x256 actor; a 16-unit critic)
+    with CriticWarmup's first 100 steps training the critic alone, written to ``path``."""
+    recipe = {
+        "n_envs": 2, "n_steps": 16, "batch_size": 32, "n_epochs": n_epochs,
+        "policy_kwargs": "dict(features_extractor_class=NormalizedFlatten, net_arch=dict("
+                         "pi=[256, 256, 256], vf=[16]), activation_fn=nn.ReLU, log_std_init=-2.0)",
+        "callback": [{"panda_rapier.finetune.CriticWarmup": {"steps": 100}}],
+    }  # fmt: skip
+    path.write_text(yaml.safe_dump({env_id: recipe}))
+    return path
+
+
 def test_fine_tuning_a_cloned_policy_takes_its_actor_and_warms_the_critic_up(
     tmp_path: Path,
 ) -> None:
@@ -399,14 +412,7 @@ def test_fine_tuning_a_cloned_policy_takes_its_actor_and_warms_the_critic_up(
     the recipe makes them; CriticWarmup then trains the value function alone: after the run
     the actor is still exactly the cloned one and the critic has moved."""
     cloned = Path(__file__).resolve().parents[2] / "models" / "bc-dagger-Stack-v0.zip"
-    recipe = {
-        "n_envs": 2, "n_steps": 16, "batch_size": 32, "n_epochs": 2,
-        "policy_kwargs": "dict(features_extractor_class=NormalizedFlatten, net_arch=dict("
-                         "pi=[256, 256, 256], vf=[16]), activation_fn=nn.ReLU, log_std_init=-2.0)",
-        "callback": [{"panda_rapier.finetune.CriticWarmup": {"steps": 100}}],
-    }  # fmt: skip
-    conf = tmp_path / "ppo.yml"
-    conf.write_text(yaml.safe_dump({"panda_rapier/StackDense-v0": recipe}))
+    conf = _warm_up_recipe(tmp_path / "ppo.yml", "panda_rapier/StackDense-v0", n_epochs=2)
     assert main(["train", "--algo", "ppo", "--env-id", "panda_rapier/StackDense-v0",
                  "--conf", str(conf), "--quiet", "--eval-every", "0", "--checkpoint-every", "0",
                  "--timesteps", "64", "--out", str(tmp_path / "a"),
@@ -432,14 +438,7 @@ def test_patience_counts_from_the_end_of_the_critic_warm_up(tmp_path: Path) -> N
     from; they are marked and do not count towards --patience, so a patience shorter than
     the warm-up does not end the run before the actor has trained."""
     cloned = Path(__file__).resolve().parents[2] / "models" / "bc-dagger-Reach-v0.zip"
-    recipe = {
-        "n_envs": 2, "n_steps": 16, "batch_size": 32, "n_epochs": 1,
-        "policy_kwargs": "dict(features_extractor_class=NormalizedFlatten, net_arch=dict("
-                         "pi=[256, 256, 256], vf=[16]), activation_fn=nn.ReLU, log_std_init=-2.0)",
-        "callback": [{"panda_rapier.finetune.CriticWarmup": {"steps": 100}}],
-    }  # fmt: skip
-    conf = tmp_path / "ppo.yml"
-    conf.write_text(yaml.safe_dump({"panda_rapier/ReachDense-v0": recipe}))
+    conf = _warm_up_recipe(tmp_path / "ppo.yml", "panda_rapier/ReachDense-v0", n_epochs=1)
     out = tmp_path / "run"
     assert main(["train", "--algo", "ppo", "--env-id", "panda_rapier/ReachDense-v0",
                  "--conf", str(conf), "--quiet", "--eval-every", "32", "--eval-episodes", "2",

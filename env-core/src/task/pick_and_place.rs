@@ -457,11 +457,7 @@ impl Task for PickAndPlace {
         let (size, _, _) = view.sim.object_properties(cube);
         let platform_height = self.section.platform.top_center[2];
         let is_grasped = touch.finger_forces.iter().all(|&f| f >= t.grasp_force);
-        let lift = if platform_height > 0.0 {
-            ((cube_z - size / 2.0) / platform_height).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let lift = lift_fraction(cube_z, size, platform_height);
         let w = &self.reward.weights;
         let context = RewardContext {
             reach: w.reach as f32 * closeness(reach_distance),
@@ -523,6 +519,17 @@ pub(crate) fn write_cube_slots(cube: &BodyState, tcp: &BodyState, out: &mut [f64
 pub(crate) fn canonical(q: &nalgebra::UnitQuaternion<f64>) -> [f64; 4] {
     let c = if q.w < 0.0 { -q.coords } else { q.coords };
     [c.x, c.y, c.z, c.w]
+}
+
+/// The `lift` term before its weight: the height of a cube (centre `cube_z`, edge `size`)
+/// above its floor resting height over the platform's height, clipped to [0, 1]; 0 without a
+/// platform.
+pub(crate) fn lift_fraction(cube_z: f64, size: f64, platform_height: f64) -> f64 {
+    if platform_height > 0.0 {
+        ((cube_z - size / 2.0) / platform_height).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
 }
 
 /// The Euclidean norm of an observation slot, computed in f64 from its f32 values.

@@ -66,7 +66,7 @@ use crate::physics::{BodyState, ObjectId, ObjectSpec, ObjectTouch, Scene, Simula
 use crate::task::config::RewardType;
 use crate::task::observation::{info_field, InfoField, InfoType};
 use crate::task::pick_and_place::{
-    cube_task_info, norm, term_field, write_cube_slots, IS_GRASPED, IS_LIFTED,
+    cube_task_info, lift_fraction, norm, term_field, write_cube_slots, IS_GRASPED, IS_LIFTED,
 };
 use crate::task::reward::cube_terms::{self, CARRY, GRASP, PLACE, REACH};
 use crate::task::reward::{
@@ -436,14 +436,12 @@ impl Task for Stack {
             RewardFunction::distance(&achieved[..3], &desired[..3]) < self.config.success_threshold;
         let handled = usize::from(first_done);
         let reach_distance = norm(slot(handled, RELATIVE_POSITION));
-        let platform_height = self.section.platform.top_center[2];
-        let lift = if platform_height > 0.0 {
-            let (size, _, _) = view.sim.object_properties([c1, c2][handled]);
-            let z = achieved[3 * handled + 2] as f64;
-            ((z - size / 2.0) / platform_height).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let (size, _, _) = view.sim.object_properties([c1, c2][handled]);
+        let lift = lift_fraction(
+            achieved[3 * handled + 2] as f64,
+            size,
+            self.section.platform.top_center[2],
+        );
         let w = &self.weights;
         let context = RewardContext {
             reach: w.reach as f32 * closeness(reach_distance),
