@@ -47,10 +47,11 @@ def test_bench_train_measures_every_variant_in_every_round(
     argv = ["bench-train", "--env-id", "panda_rapier/ReachDense-v0", "--steps", "128",
             "--rounds", "2", "--quiet", "--json", str(out),
             "--variant", "two", *TINY, "n_epochs=2",
-            "--variant", "one", *TINY, "n_epochs=1", "update_threads=1"]  # fmt: skip
+            "--variant", "one", *TINY, "n_epochs=1", "update_threads=1",
+            "--variant", "stock", *TINY, "n_epochs=2", "backend=sb3-stock"]  # fmt: skip
     assert main(argv) == 0
     report = json.loads(out.read_text())
-    assert [row["variant"] for row in report["variants"]] == ["two", "one"]
+    assert [row["variant"] for row in report["variants"]] == ["two", "one", "stock"]
     assert report["variants"][1]["overrides"] == {
         "n_envs": 4, "n_steps": 16, "batch_size": 32, "policy_kwargs": "dict(net_arch=[16])",
         "n_epochs": 1, "update_threads": 1,
@@ -64,6 +65,27 @@ def test_bench_train_measures_every_variant_in_every_round(
     assert report["variants"][0]["ratio_to_first"] == 1.0
     printed = capsys.readouterr().out
     assert "| two |" in printed and "| one |" in printed and "env-steps/s" in printed
+    with pytest.raises(InvalidArgumentError, match="sb3-stock"):
+        benchmark_training("tqc", "panda_rapier/PickAndPlace-v0",
+                           [("s", {"backend": "sb3-stock"})], steps=64, rounds=1)  # fmt: skip
+
+
+def test_train_names_the_class_that_trained(tmp_path: Path) -> None:
+    """``panda-rapier train`` trains PPO with panda_rapier.ppo.PPO, SB3's own on request,
+    and says which in run.json."""
+    conf = tmp_path / "tiny.yml"
+    conf.write_text(yaml.safe_dump({"panda_rapier/ReachDense-v0": {
+        "n_envs": 4, "n_steps": 16, "batch_size": 32, "n_epochs": 1,
+        "policy": "MultiInputPolicy", "policy_kwargs": "dict(net_arch=[16])"}}))  # fmt: skip
+    from panda_rapier.training import train
+
+    for stock, name in ((False, "panda_rapier.ppo.PPO"),
+                        (True, "stable_baselines3.ppo.ppo.PPO")):  # fmt: skip
+        out = tmp_path / f"run-{stock}"
+        run = train("ppo", "panda_rapier/ReachDense-v0", out, conf=conf, timesteps=64,
+                    progress=False, say=lambda _: None, stock_sb3=stock)  # fmt: skip
+        assert run["algorithm_class"] == name
+        assert json.loads((out / "run.json").read_text())["algorithm_class"] == name
 
 
 def test_describe_split_gives_each_phases_share() -> None:

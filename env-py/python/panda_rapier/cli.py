@@ -226,8 +226,9 @@ def _parser() -> argparse.ArgumentParser:
         action="append",
         metavar="NAME [KEY=VALUE ...]",
         help="a variant: a name, then recipe overrides, update_threads (torch's threads "
-        "during updates) and backend=rllib (ppo: the same recipe trained by RLlib); repeat "
-        "for each (default: one, the recipe as it is)",
+        "during updates) and backend=sb3-stock (ppo: stable-baselines3's PPO class itself "
+        "instead of panda_rapier.ppo.PPO) or backend=rllib (ppo: the same recipe trained by "
+        "RLlib); repeat for each (default: one, the recipe as it is)",
     )
     bench_train.add_argument(
         "--steps", type=_positive, default=81_920, help="env steps per run (default 81,920)"

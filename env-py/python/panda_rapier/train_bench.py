@@ -28,7 +28,9 @@ from .phases import PHASES
 __all__ = ["Variant", "benchmark_training", "format_training_report", "parse_variant"]
 
 #: A variant: its name and its overrides (recipe keys, ``update_threads``, and ``backend``:
-#: ``sb3``, the default, or ``rllib``, ppo only: the same recipe trained by RLlib).
+#: ``sb3``, the default (what ``panda-rapier train`` uses: for ppo :class:`panda_rapier.ppo.PPO`),
+#: ``sb3-stock`` (``stable_baselines3.PPO`` itself, ppo only) or ``rllib`` (ppo only: the same
+#: recipe trained by RLlib).
 Variant = tuple[str, dict[str, Any]]
 #: Variant keys that are not recipe keys.
 _RUN_KEYS = ("update_threads", "backend")
@@ -96,9 +98,10 @@ def benchmark_training(
             path.write_text(yaml.safe_dump({env_id: recipe}))
             recipes[name] = (path, overrides.get("update_threads"))
             backend = overrides.get("backend", "sb3")
-            if backend not in ("sb3", "rllib") or (backend == "rllib" and algo != "ppo"):
+            if backend not in ("sb3", "sb3-stock", "rllib") or (backend != "sb3" and algo != "ppo"):
                 raise InvalidArgumentError(
-                    f"variant {name}: backend is sb3 or rllib (ppo only), got {backend!r}"
+                    f"variant {name}: backend is sb3, sb3-stock or rllib (the last two ppo "
+                    f"only), got {backend!r}"
                 )
         for r in range(rounds):
             for k, name in enumerate(names):
@@ -119,6 +122,7 @@ def benchmark_training(
                             algo, env_id, out, conf=path, timesteps=steps,
                             update_threads=threads, eval_every=0, checkpoint_every=0,
                             progress=False, say=lambda _: None,
+                            stock_sb3=dict(variants)[name].get("backend") == "sb3-stock",
                         )  # fmt: skip
                 except ConfigError as error:
                     raise ConfigError(f"variant {name}: {error}") from error

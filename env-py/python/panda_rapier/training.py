@@ -218,11 +218,17 @@ def _callbacks(spec: Any) -> list[Any]:
     return built
 
 
-def _algorithm_class(algo: str) -> Any:
+def _algorithm_class(algo: str, stock: bool = False) -> Any:
+    """The class that trains ``algo``: :class:`panda_rapier.ppo.PPO` for ppo (SB3's own with
+    ``stock``), else stable-baselines3's or sb3-contrib's."""
     if algo == "tqc":
         from sb3_contrib import TQC
 
         return TQC
+    if algo == "ppo" and not stock:
+        from .ppo import PPO
+
+        return PPO
     import stable_baselines3
 
     return getattr(stable_baselines3, "PPO" if algo == "bc" else algo.upper())
@@ -466,6 +472,7 @@ def train(
     final: str | None = None,
     on_checkpoint: Callable[[Path], None] | None = None,
     default_eval_every: int | None = None,
+    stock_sb3: bool = False,
 ) -> dict[str, Any]:
     """Trains ``algo`` on ``env_id`` with its recipe and writes the run to ``out`` (see the
     module's documentation); returns the run record. ``timesteps`` and ``n_envs`` override
@@ -485,7 +492,10 @@ def train(
     (``out/checkpoints``, ``run.json`` and ``evaluations.jsonl`` are then a resumable whole).
     torch runs on ``torch_threads`` threads while environments step
     and on ``update_threads`` (``None``: every core) while nothing else runs: PPO's updates and
-    behaviour cloning's fits (:mod:`panda_rapier.threads`).
+    behaviour cloning's fits (:mod:`panda_rapier.threads`). PPO is trained by
+    :class:`panda_rapier.ppo.PPO` (SB3's algorithm with cheaper loops), or with ``stock_sb3``
+    by ``stable_baselines3.PPO`` itself (``panda-rapier bench-train`` compares the two); the
+    run record names the class in ``algorithm_class``.
 
     Early stopping, judged on the periodic evaluations: training ends once an evaluation's
     success rate reaches ``stop_at``, or after ``patience`` evaluations in a row that do not
@@ -570,7 +580,8 @@ def train(
     total = int(timesteps if timesteps is not None else recipe.get("n_timesteps", 1_000_000))
     n = int(n_envs if n_envs is not None else recipe.get("n_envs", 1))
     run.update(n_envs=n, n_timesteps=total)
-    algorithm = _algorithm_class(algo)
+    algorithm = _algorithm_class(algo, stock=stock_sb3)
+    run["algorithm_class"] = f"{algorithm.__module__}.{algorithm.__qualname__}"
     state: dict[str, Any] = {
         "next_eval": eval_every or 0,
         "next_checkpoint": checkpoint_every or 0,
