@@ -154,3 +154,11 @@ def test_readme_student_figures_are_the_recorded_evaluation() -> None:
         if next(bool(t["has_placed"]) for t in TASKS if t["name"] == task):
             wanted += f" and {recorded['placed_rate']:.3f} placed"
         assert wanted in readme, wanted
+
+
+def test_models_readme_opens_with_the_generators_header() -> None:
+    """models/README.md is generated (`panda-rapier models-table models`): its opening text
+    is the generator's, so an edit of either shows here, not only after the next run."""
+    from panda_rapier.reporting import _header
+
+    assert (MODELS / "README.md").read_text().startswith(_header(Path("models"), 1000))
