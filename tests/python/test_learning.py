@@ -561,14 +561,19 @@ def test_curves_and_models_table(tmp_path: Path, capsys: pytest.CaptureFixture[s
 
 
 def test_run_labels_tell_seeds_and_recipe_files_apart() -> None:
-    """Curves of several runs of one id need legends that differ: a seed other than 0 and a
-    recipe file other than the package's are named."""
+    """Curves of several runs of one id need legends that differ: a seed other than 0, a
+    recipe file other than the package's and SB3's own PPO class are named."""
     from panda_rapier.reporting import run_label
 
     run = {"algo": "ppo", "env_id": "panda_rapier/PickAndPlaceDense-v0", "seed": 0,
            "env_kwargs": {"reward_weights": {"release": 1.0}},
-           "recipe_file": "panda_rapier/hyperparams/ppo.yml"}  # fmt: skip
+           "recipe_file": "panda_rapier/hyperparams/ppo.yml",
+           "algorithm_class": "panda_rapier.ppo.PPO"}  # fmt: skip
     assert run_label(run) == "ppo PickAndPlaceDense-v0 (dynamic arm, release=1.0)"
+    stock = run_label({**run, "algorithm_class": "stable_baselines3.ppo.ppo.PPO"})
+    assert stock.endswith("release=1.0, SB3's PPO class)")
+    older = {k: v for k, v in run.items() if k != "algorithm_class"}  # before the class was
+    assert run_label(older) == stock
     assert run_label({**run, "seed": 2}).endswith("release=1.0, seed 2)")
     assert run_label({**run, "recipe_file": "/tmp/x/ppo-e128.yml"}).endswith(", recipe ppo-e128)")
 

@@ -44,8 +44,9 @@ def _evaluations(run: Path) -> list[dict[str, Any]]:
 
 def run_label(run: dict[str, Any]) -> str:
     """A short name of a run: algorithm, task variant, arm, non-default options, and what
-    tells runs of one id apart: a seed other than 0 and a recipe file other than the
-    package's."""
+    tells runs of one id apart: a seed other than 0, a recipe file other than the package's,
+    and for PPO a class other than :class:`panda_rapier.ppo.PPO` (runs recorded before it
+    have no ``algorithm_class``: stable-baselines3's own)."""
     env = str(run.get("env_id", "?")).split("/")[-1]
     options = dict(run.get("env_kwargs") or {})
     arm = options.pop("arm", "dynamic")
@@ -60,6 +61,10 @@ def run_label(run: dict[str, Any]) -> str:
     recipe = str(run.get("recipe_file") or "")
     if recipe and not recipe.startswith("panda_rapier/hyperparams/"):
         parts.append(f"recipe {Path(recipe).stem}")
+    if run.get("algo") == "ppo" and run.get("backend") != "rllib":
+        cls = str(run.get("algorithm_class", "stable_baselines3.ppo.ppo.PPO"))
+        if cls != "panda_rapier.ppo.PPO":
+            parts.append("SB3's PPO class")
     return f"{_trainer(run)} {env} ({', '.join(parts)})"
 
 
@@ -342,12 +347,13 @@ def _header(folder: Path, episodes: int) -> str:
         f"on the same {episodes} episodes, seeds 0..{episodes - 1}, which no training run "
         "uses. Wall time is training on a 2-core development VM, evaluations excluded; its "
         "CPU changed between sessions (Intel Xeon, AMD EPYCs) and the same work took up to "
-        "1.5x longer on one than on another (`docs/training.md`). Env steps include the expert's demonstrations and every rollout the "
-        "learner drove. Success as the task defines it (95 % Wilson interval); placed: also "
-        "released and at rest (tasks that place). Models act through the native float64 "
-        "network (the same bits on every CPU): an evaluation repeats these episodes exactly "
-        "wherever the package version, CPU architecture and C library recorded in "
-        "`evaluations.json` match, and these rates within their interval elsewhere "
+        "1.5x longer on one than on another (`docs/training.md`). Env steps include the "
+        "expert's demonstrations and every rollout the learner drove. Success as the task "
+        "defines it (95 % Wilson interval); placed: also released and at rest (tasks that "
+        "place). Models act through the native float64 network (the same bits on every CPU): "
+        "an evaluation repeats these episodes exactly wherever the package version, CPU "
+        "architecture and C library recorded in `evaluations.json` match, and these rates "
+        "within their interval elsewhere "
         "(`docs/reproducibility.md`).\n\n"
     )
 
