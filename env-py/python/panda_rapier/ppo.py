@@ -61,6 +61,8 @@ def lean_update_applies(model: stable_baselines3.PPO) -> bool:
     """Whether :meth:`PPO.train` takes the lean path for ``model``'s policy (see the module's
     documentation), rather than SB3's own update."""
     policy = model.policy
+    if not isinstance(policy, ActorCriticPolicy):
+        return False
     extractors = (
         [policy.features_extractor]
         if policy.share_features_extractor
@@ -68,7 +70,6 @@ def lean_update_applies(model: stable_baselines3.PPO) -> bool:
     )
     return (
         type(policy.action_dist) is DiagGaussianDistribution
-        and isinstance(policy, ActorCriticPolicy)
         and isinstance(policy.mlp_extractor, MlpExtractor)
         and isinstance(model.action_space, spaces.Box)
         and not model.use_sde
