@@ -107,7 +107,7 @@ class PPO(stable_baselines3.PPO):
         loss = th.zeros(())
         size = len(data["returns"])
         continue_training = True
-        for _epoch in range(self.n_epochs):
+        for epoch in range(self.n_epochs):
             approx_kl_divs = []
             # SB3's rollout buffer draws this permutation per epoch (RolloutBuffer.get), from
             # numpy's global generator, which the algorithm's seed sets.
@@ -147,7 +147,7 @@ class PPO(stable_baselines3.PPO):
                 if self.target_kl is not None and stats[4] > 1.5 * self.target_kl:
                     continue_training = False
                     if self.verbose >= 1:
-                        print(f"Early stopping at step {_epoch} due to reaching max kl: "
+                        print(f"Early stopping at step {epoch} due to reaching max kl: "
                               f"{stats[4]:.2f}")  # fmt: skip
                     break
                 policy.optimizer.zero_grad()

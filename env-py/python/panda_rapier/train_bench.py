@@ -109,8 +109,9 @@ def benchmark_training(
                     progress(r * len(names) + k, total, f"round {r + 1}, {name}")
                 path, threads = recipes[name]
                 out = Path(scratch) / f"run-{r}-{name}"
+                backend = dict(variants)[name].get("backend", "sb3")
                 try:
-                    if dict(variants)[name].get("backend") == "rllib":
+                    if backend == "rllib":
                         from .rllib_training import train as train_rllib
 
                         run = train_rllib(
@@ -122,7 +123,7 @@ def benchmark_training(
                             algo, env_id, out, conf=path, timesteps=steps,
                             update_threads=threads, eval_every=0, checkpoint_every=0,
                             progress=False, say=lambda _: None,
-                            stock_sb3=dict(variants)[name].get("backend") == "sb3-stock",
+                            stock_sb3=backend == "sb3-stock",
                         )  # fmt: skip
                 except ConfigError as error:
                     raise ConfigError(f"variant {name}: {error}") from error
