@@ -562,7 +562,8 @@ def test_curves_and_models_table(tmp_path: Path, capsys: pytest.CaptureFixture[s
 
 def test_run_labels_tell_seeds_and_recipe_files_apart() -> None:
     """Curves of several runs of one id need legends that differ: a seed other than 0, a
-    recipe file other than the package's and SB3's own PPO class are named."""
+    recipe file other than the package's, SB3's own PPO class and overlapped updates are
+    named."""
     from panda_rapier.reporting import run_label
 
     run = {"algo": "ppo", "env_id": "panda_rapier/PickAndPlaceDense-v0", "seed": 0,
@@ -576,6 +577,9 @@ def test_run_labels_tell_seeds_and_recipe_files_apart() -> None:
     assert run_label(older) == stock
     assert run_label({**run, "seed": 2}).endswith("release=1.0, seed 2)")
     assert run_label({**run, "recipe_file": "/tmp/x/ppo-e128.yml"}).endswith(", recipe ppo-e128)")
+    overlapped = run_label({**run, "overlap_updates": True})
+    assert overlapped.endswith("release=1.0, updates overlapped)")
+    assert run_label({**run, "overlap_updates": False}) == run_label(run)
 
 
 def test_reproduce_commands_name_the_recipe_an_old_run_used(tmp_path: Path) -> None:

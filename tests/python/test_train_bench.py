@@ -48,10 +48,12 @@ def test_bench_train_measures_every_variant_in_every_round(
             "--rounds", "2", "--quiet", "--json", str(out),
             "--variant", "two", *TINY, "n_epochs=2",
             "--variant", "one", *TINY, "n_epochs=1", "update_threads=1",
-            "--variant", "stock", *TINY, "n_epochs=2", "backend=sb3-stock"]  # fmt: skip
+            "--variant", "stock", *TINY, "n_epochs=2", "backend=sb3-stock",
+            "--variant", "overlap", *TINY, "n_epochs=2", "overlap=true"]  # fmt: skip
     assert main(argv) == 0
     report = json.loads(out.read_text())
-    assert [row["variant"] for row in report["variants"]] == ["two", "one", "stock"]
+    assert [row["variant"] for row in report["variants"]] == ["two", "one", "stock", "overlap"]
+    assert report["variants"][3]["overrides"]["overlap"] is True
     assert report["variants"][1]["overrides"] == {
         "n_envs": 4, "n_steps": 16, "batch_size": 32, "policy_kwargs": "dict(net_arch=[16])",
         "n_epochs": 1, "update_threads": 1,
@@ -68,6 +70,13 @@ def test_bench_train_measures_every_variant_in_every_round(
     with pytest.raises(InvalidArgumentError, match="sb3-stock"):
         benchmark_training("tqc", "panda_rapier/PickAndPlace-v0",
                            [("s", {"backend": "sb3-stock"})], steps=64, rounds=1)  # fmt: skip
+    for overrides in ({"overlap": "yes"}, {"overlap": True, "backend": "sb3-stock"}):
+        with pytest.raises(InvalidArgumentError, match="overlap"):
+            benchmark_training("ppo", "panda_rapier/ReachDense-v0", [("o", overrides)],
+                               steps=64, rounds=1)  # fmt: skip
+    with pytest.raises(InvalidArgumentError, match="overlap"):
+        benchmark_training("tqc", "panda_rapier/PickAndPlace-v0", [("o", {"overlap": True})],
+                           steps=64, rounds=1)  # fmt: skip
 
 
 def test_train_names_the_class_that_trained(tmp_path: Path) -> None:

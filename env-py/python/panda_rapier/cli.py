@@ -226,7 +226,8 @@ def _parser() -> argparse.ArgumentParser:
         action="append",
         metavar="NAME [KEY=VALUE ...]",
         help="a variant: a name, then recipe overrides, update_threads (torch's threads "
-        "during updates) and backend=sb3-stock (ppo: stable-baselines3's PPO class itself "
+        "during updates), overlap=true (ppo: updates in a second process while the next rollout "
+        "is collected) and backend=sb3-stock (ppo: stable-baselines3's PPO class itself "
         "instead of panda_rapier.ppo.PPO) or backend=rllib (ppo: the same recipe trained by "
         "RLlib); repeat for each (default: one, the recipe as it is)",
     )
@@ -314,6 +315,12 @@ def _parser() -> argparse.ArgumentParser:
         default=None,
         help="torch threads while nothing else runs: PPO's updates, behaviour cloning's fits "
         "(default: every core)",
+    )
+    train.add_argument(
+        "--overlap-updates",
+        action="store_true",
+        help="ppo: run each update in a second process while the next rollout is collected "
+        "(by the policy from before that update; docs/guide/throughput.md)",
     )
     train.add_argument(
         "--patience",
@@ -481,6 +488,7 @@ _SB3_ONLY = {
     "trust_model_file": False,
     "threads": None,
     "update_threads": None,
+    "overlap_updates": False,
 }
 
 
@@ -545,6 +553,7 @@ def _run_train(args: argparse.Namespace) -> int:
             torch_threads=args.torch_threads,
             update_threads=args.update_threads,
             default_eval_every=250_000,
+            overlap_updates=True if args.overlap_updates else None,
         )
     return _report_run(args, run)
 

@@ -23,6 +23,10 @@ The rollouts (:meth:`PPO.collect_rollouts`): SB3's loop, except that the value o
 environment whose episode was cut by the time limit is predicted in one forward pass per step
 instead of one per environment (the bootstrapped rewards equal SB3's to float32 rounding).
 
+With :attr:`PPO.overlap_updates` (``panda-rapier train --overlap-updates``) each update runs
+in a learner process while the next rollout is collected, by the policy from before that
+update (:mod:`panda_rapier.overlap`): a different schedule, not the same arithmetic.
+
 Measured on pick-and-place, the package recipe, 2 cores: ``docs/guide/throughput.md``.
 """
 
@@ -81,7 +85,60 @@ def lean_update_applies(model: stable_baselines3.PPO) -> bool:
 
 class PPO(stable_baselines3.PPO):
     """``stable_baselines3.PPO``, the same algorithm with cheaper update and rollout loops
-    (see the module's documentation)."""
+    (see the module's documentation).
+
+    ``overlap_updates`` (default ``False``; an attribute, not saved with the model) makes
+    :meth:`learn` run each update in a learner process while the next rollout is collected,
+    by the policy from before that update (:mod:`panda_rapier.overlap`)."""
+
+    overlap_updates: bool = False
+
+    def _excluded_save_params(self) -> list[str]:
+        return [*super()._excluded_save_params(), "overlap_updates"]
+
+    def learn(
+        self,
+        total_timesteps: int,
+        callback: Any = None,
+        log_interval: int = 1,
+        tb_log_name: str = "PPO",
+        reset_num_timesteps: bool = True,
+        progress_bar: bool = False,
+    ) -> PPO:
+        """SB3's ``learn``; with :attr:`overlap_updates` the same loop with each update run
+        in a learner process while the next rollout is collected (:mod:`panda_rapier.overlap`:
+        rollout ``k + 1`` is collected by the policy from before update ``k``, whose result
+        is taken in after it). Logs are dumped at the same points as SB3's loop."""
+        if not self.overlap_updates:
+            return super().learn(
+                total_timesteps, callback, log_interval, tb_log_name, reset_num_timesteps,
+                progress_bar,
+            )  # fmt: skip
+        from .overlap import UpdateProcess
+
+        iteration = 0
+        total_timesteps, callback = self._setup_learn(
+            total_timesteps, callback, reset_num_timesteps, tb_log_name, progress_bar
+        )
+        callback.on_training_start(locals(), globals())
+        assert self.env is not None
+        with UpdateProcess(self) as learner:
+            while self.num_timesteps < total_timesteps:
+                more = self.collect_rollouts(
+                    self.env, callback, self.rollout_buffer, n_rollout_steps=self.n_steps
+                )
+                learner.finish(self, apply=more)
+                if not more:
+                    break
+                iteration += 1
+                self._update_current_progress_remaining(self.num_timesteps, total_timesteps)
+                if log_interval is not None and iteration % log_interval == 0:
+                    assert self.ep_info_buffer is not None
+                    self.dump_logs(iteration)
+                learner.start(self.rollout_buffer, self._current_progress_remaining)
+            learner.finish(self)
+        callback.on_training_end()
+        return self
 
     def train(self) -> None:
         """One update on the rollout buffer: SB3's (``stable_baselines3.PPO.train``), computed

@@ -45,8 +45,9 @@ def _evaluations(run: Path) -> list[dict[str, Any]]:
 def run_label(run: dict[str, Any]) -> str:
     """A short name of a run: algorithm, task variant, arm, non-default options, and what
     tells runs of one id apart: a seed other than 0, a recipe file other than the package's,
-    and for PPO a class other than :class:`panda_rapier.ppo.PPO` (runs recorded before it
-    have no ``algorithm_class``: stable-baselines3's own)."""
+    for PPO a class other than :class:`panda_rapier.ppo.PPO` (runs recorded before it
+    have no ``algorithm_class``: stable-baselines3's own) and updates overlapped with the
+    next rollout (``overlap_updates``)."""
     env = str(run.get("env_id", "?")).split("/")[-1]
     options = dict(run.get("env_kwargs") or {})
     arm = options.pop("arm", "dynamic")
@@ -65,6 +66,8 @@ def run_label(run: dict[str, Any]) -> str:
         cls = str(run.get("algorithm_class", "stable_baselines3.ppo.ppo.PPO"))
         if cls != "panda_rapier.ppo.PPO":
             parts.append("SB3's PPO class")
+    if run.get("overlap_updates"):
+        parts.append("updates overlapped")
     return f"{_trainer(run)} {env} ({', '.join(parts)})"
 
 

@@ -1,7 +1,8 @@
 """Training throughput benchmark: what ``panda-rapier bench-train`` runs.
 
 Trains the same algorithm on the same id with several variants of its recipe (hyperparameter
-overrides, and ``update_threads``: torch's threads during updates) for a fixed number of env
+overrides, ``update_threads``: torch's threads during updates, ``overlap``: updates
+overlapped with the next rollout, and ``backend``) for a fixed number of env
 steps each, round after round in a fixed interleaved order, so the machine's drift spreads
 over every variant; reports per variant the median over the rounds of the end-to-end rate
 (env steps per second of training, updates included; evaluations, checkpoints and set-up
@@ -30,10 +31,11 @@ __all__ = ["Variant", "benchmark_training", "format_training_report", "parse_var
 #: A variant: its name and its overrides (recipe keys, ``update_threads``, and ``backend``:
 #: ``sb3``, the default (what ``panda-rapier train`` uses: for ppo :class:`panda_rapier.ppo.PPO`),
 #: ``sb3-stock`` (``stable_baselines3.PPO`` itself, ppo only) or ``rllib`` (ppo only: the same
-#: recipe trained by RLlib).
+#: recipe trained by RLlib), and ``overlap`` (``true``: ppo's updates overlapped with the next
+#: rollout, :mod:`panda_rapier.overlap`).
 Variant = tuple[str, dict[str, Any]]
 #: Variant keys that are not recipe keys.
-_RUN_KEYS = ("update_threads", "backend")
+_RUN_KEYS = ("update_threads", "backend", "overlap")
 
 
 def parse_variant(tokens: Sequence[str]) -> Variant:
@@ -98,6 +100,13 @@ def benchmark_training(
             path.write_text(yaml.safe_dump({env_id: recipe}))
             recipes[name] = (path, overrides.get("update_threads"))
             backend = overrides.get("backend", "sb3")
+            if overrides.get("overlap", False) not in (True, False) or (
+                overrides.get("overlap") and (backend != "sb3" or algo != "ppo")
+            ):
+                raise InvalidArgumentError(
+                    f"variant {name}: overlap is true or false, and true only for ppo with "
+                    f"backend sb3, got {overrides.get('overlap')!r}"
+                )
             if backend not in ("sb3", "sb3-stock", "rllib") or (backend != "sb3" and algo != "ppo"):
                 raise InvalidArgumentError(
                     f"variant {name}: backend is sb3, sb3-stock or rllib (the last two ppo "
@@ -124,6 +133,7 @@ def benchmark_training(
                             update_threads=threads, eval_every=0, checkpoint_every=0,
                             progress=False, say=lambda _: None,
                             stock_sb3=backend == "sb3-stock",
+                            overlap_updates=bool(dict(variants)[name].get("overlap", False)),
                         )  # fmt: skip
                 except ConfigError as error:
                     raise ConfigError(f"variant {name}: {error}") from error

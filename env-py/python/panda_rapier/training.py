@@ -473,6 +473,7 @@ def train(
     on_checkpoint: Callable[[Path], None] | None = None,
     default_eval_every: int | None = None,
     stock_sb3: bool = False,
+    overlap_updates: bool | None = None,
 ) -> dict[str, Any]:
     """Trains ``algo`` on ``env_id`` with its recipe and writes the run to ``out`` (see the
     module's documentation); returns the run record. ``timesteps`` and ``n_envs`` override
@@ -495,7 +496,11 @@ def train(
     behaviour cloning's fits (:mod:`panda_rapier.threads`). PPO is trained by
     :class:`panda_rapier.ppo.PPO` (SB3's algorithm with cheaper loops), or with ``stock_sb3``
     by ``stable_baselines3.PPO`` itself (``panda-rapier bench-train`` compares the two); the
-    run record names the class in ``algorithm_class``.
+    run record names the class in ``algorithm_class``. ``overlap_updates`` (ppo with
+    :class:`panda_rapier.ppo.PPO` only) runs each update in a learner process while the next
+    rollout is collected, by the policy from before that update (:mod:`panda_rapier.overlap`);
+    the run record keeps it, and a resumed run keeps what it recorded (``None``: that, else
+    ``False``).
 
     Early stopping, judged on the periodic evaluations: training ends once an evaluation's
     success rate reaches ``stop_at``, or after ``patience`` evaluations in a row that do not
@@ -582,6 +587,14 @@ def train(
     run.update(n_envs=n, n_timesteps=total)
     algorithm = _algorithm_class(algo, stock=stock_sb3)
     run["algorithm_class"] = f"{algorithm.__module__}.{algorithm.__qualname__}"
+    if overlap_updates is None:
+        overlap_updates = bool((previous or {}).get("overlap_updates", False)) if resume else False
+    if overlap_updates and (algo != "ppo" or stock_sb3):
+        raise InvalidArgumentError(
+            "overlapped updates are for ppo trained by panda_rapier.ppo.PPO (not "
+            f"{'stable_baselines3.PPO' if stock_sb3 else algo})"
+        )
+    run["overlap_updates"] = bool(overlap_updates)
     state: dict[str, Any] = {
         "next_eval": eval_every or 0,
         "next_checkpoint": checkpoint_every or 0,
@@ -607,6 +620,8 @@ def train(
         verbose=0,
         **kwargs,
     )
+    if overlap_updates:
+        model.overlap_updates = True
     if resume:
         # Rebuilt from the recorded recipe, then filled from the checkpoint by data alone.
         checkpoint.restore(model, out / "checkpoints", trust=trust)
@@ -649,7 +664,7 @@ def train(
     callbacks = [*_callbacks(recipe.get("callback")), periodic]
     from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
-    if isinstance(model, OnPolicyAlgorithm):  # rollouts and updates take turns
+    if isinstance(model, OnPolicyAlgorithm) and not overlap_updates:  # rollouts, updates take turns
         callbacks.append(UpdateThreads(run["update_threads"], rollout=torch_threads))
     callbacks.append(clock)
     remaining = total - int(model.num_timesteps)
