@@ -147,6 +147,32 @@ def test_a_stop_inside_a_rollout_drops_the_update_in_flight() -> None:
     assert all(np.array_equal(start[k], v) for k, v in _weights(model).items())
 
 
+def test_parameters_frozen_in_the_main_process_stay_frozen_in_the_learner() -> None:
+    """What ``panda_rapier.finetune.CriticWarmup`` does: the actor frozen, the critic trains."""
+    model = _model()
+    for parameter in model.policy.action_net.parameters():
+        parameter.requires_grad_(False)
+    start = _weights(model)
+    model.overlap_updates = True
+    model.learn(2 * N_ENVS * N_STEPS)
+    after = _weights(model)
+    assert np.array_equal(start["action_net.weight"], after["action_net.weight"])
+    assert not np.array_equal(start["value_net.weight"], after["value_net.weight"])
+
+
+def test_an_exception_in_the_loop_stops_the_learner_at_once() -> None:
+    model = _model()
+    with pytest.raises(KeyError), UpdateProcess(model) as learner:
+        model._setup_learn(N_ENVS * N_STEPS, None)
+        callback = CallbackList([])
+        callback.init_callback(model)
+        model.collect_rollouts(model.env, callback, model.rollout_buffer, N_STEPS)
+        trainable = {name: True for name, _ in model.policy.named_parameters()}
+        learner.start(model.rollout_buffer, 1.0, trainable)
+        raise KeyError("the main process failed with an update in flight")
+    assert learner._process.poll() is not None
+
+
 def test_the_overlap_setting_is_not_saved_with_the_model(tmp_path: Path) -> None:
     model = _model()
     model.overlap_updates = True
@@ -169,7 +195,8 @@ class _BadBuffer:
 def test_a_failing_learner_process_raises_a_typed_error_with_its_traceback() -> None:
     model = _model()
     with UpdateProcess(model) as learner:
-        learner.start(_BadBuffer(), 1.0)  # type: ignore[arg-type]
+        trainable = {name: True for name, _ in model.policy.named_parameters()}
+        learner.start(_BadBuffer(), 1.0, trainable)  # type: ignore[arg-type]
         with pytest.raises(LearnerProcessError, match="learner process failed") as error:
             learner.finish(model)
     assert "broadcast" in str(error.value) or "shape" in str(error.value)

@@ -19,8 +19,12 @@ and numpy's global generator state (which draws the minibatches), trains on each
 the order it is sent, and its result is taken in at fixed points: after the next rollout
 (:meth:`panda_rapier.ppo.PPO.learn`). The learner's logger values (``train/...``) are
 recorded in the main process's logger, so logs, TensorBoard and callbacks see what a plain
-run shows, one rollout later. When training is stopped inside a rollout (a callback returned
-``False``), the update in flight is dropped, so the model is the one the callbacks saw last.
+run shows, one rollout later. Callbacks that change the model between rollouts reach the
+learner only through the parameters' ``requires_grad`` flags, sent with each rollout (what
+:class:`panda_rapier.finetune.CriticWarmup` changes); other changes to the main process's
+model are overwritten by the next update's result. When training is stopped inside a
+rollout (a callback returned ``False``), the update in flight is dropped, so the model is the
+one the callbacks saw last.
 A run resumed from a checkpoint starts a new learner from the checkpoint's model: the update
 that was in flight when the checkpoint was written is not in it.
 
@@ -111,7 +115,9 @@ def _learner(receive: Connection, send: Connection) -> None:
             message = pickle.loads(receive.recv_bytes())
             if message is None:
                 return
-            arrays, progress = message
+            arrays, progress, trainable = message
+            for name, parameter in model.policy.named_parameters():
+                parameter.requires_grad_(trainable[name])
             _fill_buffer(model.rollout_buffer, arrays)
             model._current_progress_remaining = progress
             model.train()
@@ -191,15 +197,23 @@ class UpdateProcess:
             raise LearnerProcessError(f"PPO's learner process failed:\n{payload}")
         return payload
 
-    def start(self, buffer: RolloutBuffer | DictRolloutBuffer, progress_remaining: float) -> None:
+    def start(
+        self,
+        buffer: RolloutBuffer | DictRolloutBuffer,
+        progress_remaining: float,
+        trainable: dict[str, bool],
+    ) -> None:
         """Sends ``buffer`` (full, with its returns and advantages computed) to be trained on,
-        with the schedules' ``progress_remaining``; the buffer may be refilled right away."""
+        with the schedules' ``progress_remaining`` and which of the policy's parameters
+        (by name) are trainable (``requires_grad``: callbacks such as
+        :class:`panda_rapier.finetune.CriticWarmup` freeze some); the buffer may be refilled
+        right away."""
         if self._pending:
             raise LearnerProcessError("the previous update has not been taken back (finish)")
         if not self._ready:
             self._receive()
             self._ready = True
-        payload = pickle.dumps((_buffer_arrays(buffer), float(progress_remaining)))
+        payload = pickle.dumps((_buffer_arrays(buffer), float(progress_remaining), trainable))
         self._send.send_bytes(payload)
         self._pending = True
 
@@ -222,10 +236,13 @@ class UpdateProcess:
     def close(self) -> None:
         """Stops the learner process (an update in flight is dropped)."""
         if self._process.poll() is None:
-            try:
-                self._send.send_bytes(pickle.dumps(None))
-            except OSError:
-                pass
+            if self._pending:  # e.g. an exception left the loop: nobody will read the reply
+                self._process.kill()
+            else:
+                try:
+                    self._send.send_bytes(pickle.dumps(None))
+                except OSError:
+                    pass
             try:
                 self._process.wait(timeout=30)
             except subprocess.TimeoutExpired:
