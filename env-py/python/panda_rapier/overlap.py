@@ -99,6 +99,16 @@ def _yield_to_the_environments() -> None:
             pass
 
 
+#: What the learner process runs: ``python -c _LEARNER_COMMAND PACKAGE_ROOT READ_FD WRITE_FD``.
+_LEARNER_COMMAND = (
+    "import sys; sys.path.append(sys.argv[1]); "
+    "from multiprocessing.connection import Connection; "
+    "from panda_rapier.overlap import _learner; "
+    "_learner(Connection(int(sys.argv[2]), writable=False), "
+    "Connection(int(sys.argv[3]), readable=False))"
+)
+
+
 def _learner(receive: Connection, send: Connection) -> None:
     """The learner process: loads the model, then trains it on each rollout it receives and
     sends back the policy's and optimizer's state, the logger's values and the update count."""
@@ -150,7 +160,7 @@ class UpdateProcess:
     :meth:`start` sends it; :meth:`finish` takes each update's result back into ``model``.
     Use it as a context manager: leaving the block stops the process.
 
-    The process is ``python -m panda_rapier.overlap`` with two pipes (not ``multiprocessing``,
+    The process is a new Python running :func:`_learner` with two pipes (not ``multiprocessing``,
     whose ``spawn`` re-imports the caller's main module: a script without an
     ``if __name__ == "__main__"`` guard would train twice)."""
 
@@ -159,14 +169,14 @@ class UpdateProcess:
         model.save(saved)
         down_read, down_write = os.pipe()
         up_read, up_write = os.pipe()
+        # The package's directory goes last on the child's path (it may have been added to
+        # this process's path at run time), so it shadows nothing.
         package_root = str(Path(__file__).resolve().parents[1])
-        env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join([package_root, *filter(None, [env.get("PYTHONPATH")])])
+        fds = (down_read, up_write)
         try:
             self._process = subprocess.Popen(
-                [sys.executable, "-m", "panda_rapier.overlap", str(down_read), str(up_write)],
-                pass_fds=(down_read, up_write),
-                env=env,
+                [sys.executable, "-c", _LEARNER_COMMAND, package_root, *map(str, fds)],
+                pass_fds=fds,
             )
         finally:
             os.close(down_read)
@@ -250,9 +260,3 @@ class UpdateProcess:
                 self._process.wait()
         self._send.close()
         self._receive_end.close()
-
-
-if __name__ == "__main__":
-    _learner(
-        Connection(int(sys.argv[1]), writable=False), Connection(int(sys.argv[2]), readable=False)
-    )
