@@ -167,8 +167,7 @@ def test_an_exception_in_the_loop_stops_the_learner_at_once() -> None:
         callback = CallbackList([])
         callback.init_callback(model)
         model.collect_rollouts(model.env, callback, model.rollout_buffer, N_STEPS)
-        trainable = {name: True for name, _ in model.policy.named_parameters()}
-        learner.start(model.rollout_buffer, 1.0, trainable)
+        learner.start(model)
         raise KeyError("the main process failed with an update in flight")
     assert learner._process.poll() is not None
 
@@ -195,8 +194,8 @@ class _BadBuffer:
 def test_a_failing_learner_process_raises_a_typed_error_with_its_traceback() -> None:
     model = _model()
     with UpdateProcess(model) as learner:
-        trainable = {name: True for name, _ in model.policy.named_parameters()}
-        learner.start(_BadBuffer(), 1.0, trainable)  # type: ignore[arg-type]
+        model.rollout_buffer = _BadBuffer()  # type: ignore[assignment]
+        learner.start(model)
         with pytest.raises(LearnerProcessError, match="learner process failed") as error:
             learner.finish(model)
     assert "broadcast" in str(error.value) or "shape" in str(error.value)

@@ -207,15 +207,10 @@ class UpdateProcess:
             raise LearnerProcessError(f"PPO's learner process failed:\n{payload}")
         return payload
 
-    def start(
-        self,
-        buffer: RolloutBuffer | DictRolloutBuffer,
-        progress_remaining: float,
-        trainable: dict[str, bool],
-    ) -> None:
-        """Sends ``buffer`` (full, with its returns and advantages computed) to be trained on,
-        with the schedules' ``progress_remaining`` and which of the policy's parameters
-        (by name) are trainable (``requires_grad``: callbacks such as
+    def start(self, model: Any) -> None:
+        """Sends ``model``'s rollout buffer (full, with its returns and advantages computed) to
+        be trained on, with the schedules' progress and which of the policy's parameters are
+        trainable (``requires_grad``: callbacks such as
         :class:`panda_rapier.finetune.CriticWarmup` freeze some); the buffer may be refilled
         right away."""
         if self._pending:
@@ -223,7 +218,9 @@ class UpdateProcess:
         if not self._ready:
             self._receive()
             self._ready = True
-        payload = pickle.dumps((_buffer_arrays(buffer), float(progress_remaining), trainable))
+        trainable = {name: p.requires_grad for name, p in model.policy.named_parameters()}
+        progress = float(model._current_progress_remaining)
+        payload = pickle.dumps((_buffer_arrays(model.rollout_buffer), progress, trainable))
         self._send.send_bytes(payload)
         self._pending = True
 

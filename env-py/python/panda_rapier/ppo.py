@@ -135,11 +135,7 @@ class PPO(stable_baselines3.PPO):
                 if log_interval is not None and iteration % log_interval == 0:
                     assert self.ep_info_buffer is not None
                     self.dump_logs(iteration)
-                trainable = {
-                    name: parameter.requires_grad
-                    for name, parameter in self.policy.named_parameters()
-                }
-                learner.start(self.rollout_buffer, self._current_progress_remaining, trainable)
+                learner.start(self)
             learner.finish(self)
         callback.on_training_end()
         return self

@@ -93,19 +93,18 @@ def benchmark_training(
     runs: dict[str, list[dict[str, Any]]] = {name: [] for name in names}
     total = rounds * len(variants)
     with tempfile.TemporaryDirectory(prefix="bench-train-") as scratch:
-        recipes: dict[str, tuple[Path, int | None]] = {}
+        recipes: dict[str, tuple[Path, int | None, str, Any]] = {}
         for name, overrides in variants:
             recipe = {**base, **{k: v for k, v in overrides.items() if k not in _RUN_KEYS}}
             path = Path(scratch) / f"{name}.yml"
             path.write_text(yaml.safe_dump({env_id: recipe}))
-            recipes[name] = (path, overrides.get("update_threads"))
             backend = overrides.get("backend", "sb3")
-            if overrides.get("overlap", False) not in (True, False) or (
-                overrides.get("overlap") and (backend != "sb3" or algo != "ppo")
-            ):
+            overlap = overrides.get("overlap", False)
+            recipes[name] = (path, overrides.get("update_threads"), backend, overlap)
+            if overlap not in (True, False) or (overlap and (backend != "sb3" or algo != "ppo")):
                 raise InvalidArgumentError(
                     f"variant {name}: overlap is true or false, and true only for ppo with "
-                    f"backend sb3, got {overrides.get('overlap')!r}"
+                    f"backend sb3, got {overlap!r}"
                 )
             if backend not in ("sb3", "sb3-stock", "rllib") or (backend != "sb3" and algo != "ppo"):
                 raise InvalidArgumentError(
@@ -116,9 +115,8 @@ def benchmark_training(
             for k, name in enumerate(names):
                 if progress is not None:
                     progress(r * len(names) + k, total, f"round {r + 1}, {name}")
-                path, threads = recipes[name]
+                path, threads, backend, overlap = recipes[name]
                 out = Path(scratch) / f"run-{r}-{name}"
-                backend = dict(variants)[name].get("backend", "sb3")
                 try:
                     if backend == "rllib":
                         from .rllib_training import train as train_rllib
@@ -133,7 +131,7 @@ def benchmark_training(
                             update_threads=threads, eval_every=0, checkpoint_every=0,
                             progress=False, say=lambda _: None,
                             stock_sb3=backend == "sb3-stock",
-                            overlap_updates=bool(dict(variants)[name].get("overlap", False)),
+                            overlap_updates=bool(overlap),
                         )  # fmt: skip
                 except ConfigError as error:
                     raise ConfigError(f"variant {name}: {error}") from error
