@@ -224,3 +224,20 @@ def test_train_records_the_option_and_refuses_it_where_it_does_not_apply(tmp_pat
     assert resumed["overlap_updates"] is True and resumed["env_steps"] == 3 * N_ENVS * N_STEPS
     with pytest.raises(InvalidArgumentError, match="overlapped updates"):
         train("ppo", ENV_ID, tmp_path / "stock", overlap_updates=True, stock_sb3=True, **kwargs)
+
+
+def test_the_learner_starts_before_it_has_a_model_and_refuses_to_train_without_one() -> None:
+    """``PPO.learn`` starts the process before the run's set-up (its imports take seconds) and
+    gives it the model afterwards; the model is given once, and a process that never got one
+    is stopped at once."""
+    model = _model()
+    with UpdateProcess() as learner:
+        with pytest.raises(LearnerProcessError, match="no model yet"):
+            learner.start(model)
+        learner.load(model)
+        with pytest.raises(LearnerProcessError, match="given its model already"):
+            learner.load(model)
+    assert learner._process.poll() is not None
+    with UpdateProcess() as idle:
+        pass
+    assert idle._process.returncode is not None

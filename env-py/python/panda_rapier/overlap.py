@@ -40,6 +40,7 @@ import os
 import pickle
 import subprocess
 import sys
+import threading
 import traceback
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -86,34 +87,30 @@ def _fill_buffer(buffer: RolloutBuffer | DictRolloutBuffer, arrays: dict[str, An
     buffer.full = True
 
 
-def _yield_to_the_environments() -> None:
-    """Runs this process only on cores nothing else wants (Linux ``SCHED_IDLE``; elsewhere the
-    lowest ``nice``): the environments step on every core with a barrier per step, so a
-    learner taking a core from one of their threads would stall them all."""
-    try:
-        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
-    except (AttributeError, OSError):
-        try:
-            os.nice(19)
-        except OSError:
-            pass
-
-
 #: What the learner process runs: ``python -c _LEARNER_COMMAND PACKAGE_ROOT READ_FD WRITE_FD``.
-_LEARNER_COMMAND = (
-    "import sys; sys.path.append(sys.argv[1]); "
-    "from multiprocessing.connection import Connection; "
-    "from panda_rapier.overlap import _learner; "
-    "_learner(Connection(int(sys.argv[2]), writable=False), "
-    "Connection(int(sys.argv[3]), readable=False))"
-)
+#: It first asks to run only on cores nothing else wants (Linux ``SCHED_IDLE``; elsewhere the
+#: lowest ``nice``), before importing torch: the environments step on every core with a barrier
+#: per step, so a learner taking a core from one of their threads would stall them all.
+_LEARNER_COMMAND = """\
+import os, sys
+try:
+    os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+except (AttributeError, OSError):
+    try:
+        os.nice(19)
+    except OSError:
+        pass
+sys.path.append(sys.argv[1])
+from multiprocessing.connection import Connection
+from panda_rapier.overlap import _learner
+_learner(Connection(int(sys.argv[2]), writable=False), Connection(int(sys.argv[3]), readable=False))
+"""
 
 
 def _learner(receive: Connection, send: Connection) -> None:
     """The learner process: loads the model, then trains it on each rollout it receives and
     sends back the policy's and optimizer's state, the logger's values and the update count."""
     try:
-        _yield_to_the_environments()
         th.set_num_threads(1)
         saved, model_class, numpy_state = pickle.loads(receive.recv_bytes())
         model = model_class.load(io.BytesIO(saved), device="cpu")
@@ -156,17 +153,17 @@ def _learner(receive: Connection, send: Connection) -> None:
 
 
 class UpdateProcess:
-    """A learner process that trains a copy of ``model`` (a PPO model) on the rollouts
-    :meth:`start` sends it; :meth:`finish` takes each update's result back into ``model``.
-    Use it as a context manager: leaving the block stops the process.
+    """A learner process that trains a copy of a PPO model on the rollouts :meth:`start`
+    sends it; :meth:`finish` takes each update's result back into the model. Use it as a
+    context manager: leaving the block stops the process.
 
-    The process is a new Python running :func:`_learner` with two pipes (not ``multiprocessing``,
-    whose ``spawn`` re-imports the caller's main module: a script without an
-    ``if __name__ == "__main__"`` guard would train twice)."""
+    The process starts at once and imports its libraries meanwhile (a few seconds, on cores
+    nothing else wants); :meth:`load` (or passing ``model`` here) gives it the model to start
+    from without waiting for it. It is a new Python running :func:`_learner` with two pipes
+    (not ``multiprocessing``, whose ``spawn`` re-imports the caller's main module: a script
+    without an ``if __name__ == "__main__"`` guard would train twice)."""
 
-    def __init__(self, model: Any) -> None:
-        saved = io.BytesIO()
-        model.save(saved)
+    def __init__(self, model: Any | None = None) -> None:
         down_read, down_write = os.pipe()
         up_read, up_write = os.pipe()
         # The package's directory goes last on the child's path (it may have been added to
@@ -184,10 +181,32 @@ class UpdateProcess:
         self._send = Connection(down_write, readable=False)
         self._receive_end = Connection(up_read, writable=False)
         self._pending = False
-        # The learner loads while the first rollout is collected; start() waits for it.
-        self._ready = False
+        self._ready = False  # the learner has loaded its model (start() waits for it)
+        self._loader: threading.Thread | None = None
+        if model is not None:
+            self.load(model)
+
+    def load(self, model: Any) -> None:
+        """Gives the learner the model to start from: its weights, optimizer state and
+        hyperparameters (its SB3 save) and numpy's global generator state, which draws PPO's
+        minibatches. Returns at once: a thread writes them while the learner may still be
+        importing its libraries."""
+        if self._loader is not None:
+            raise LearnerProcessError("the learner process was given its model already")
+        saved = io.BytesIO()
+        model.save(saved)
         numpy_state = np.random.get_state()  # noqa: NPY002 (SB3's minibatches draw from it)
-        self._send.send_bytes(pickle.dumps((saved.getvalue(), type(model), numpy_state)))
+        payload = pickle.dumps((saved.getvalue(), type(model), numpy_state))
+        self._loader = threading.Thread(
+            target=self._write_model, args=(payload,), name="panda-rapier-learner-load", daemon=True
+        )
+        self._loader.start()
+
+    def _write_model(self, payload: bytes) -> None:
+        try:
+            self._send.send_bytes(payload)
+        except OSError:  # the learner ended: start() reports it (no reply), close() knows
+            pass
 
     def __enter__(self) -> UpdateProcess:
         return self
@@ -216,7 +235,10 @@ class UpdateProcess:
         if self._pending:
             raise LearnerProcessError("the previous update has not been taken back (finish)")
         if not self._ready:
-            self._receive()
+            if self._loader is None:
+                raise LearnerProcessError("the learner process has no model yet (load)")
+            self._loader.join()
+            self._receive()  # an ended learner raises here, with its exit code
             self._ready = True
         trainable = {name: p.requires_grad for name, p in model.policy.named_parameters()}
         progress = float(model._current_progress_remaining)
@@ -243,7 +265,9 @@ class UpdateProcess:
     def close(self) -> None:
         """Stops the learner process (an update in flight is dropped)."""
         if self._process.poll() is None:
-            if self._pending:  # e.g. an exception left the loop: nobody will read the reply
+            # An update in flight (e.g. an exception left the loop: nobody will read the
+            # reply), or a learner still loading (the loader thread may be writing to it).
+            if self._pending or not self._ready:
                 self._process.kill()
             else:
                 try:
@@ -255,5 +279,7 @@ class UpdateProcess:
             except subprocess.TimeoutExpired:
                 self._process.kill()
                 self._process.wait()
+        if self._loader is not None:
+            self._loader.join()  # a killed learner's pipe ends the write at once
         self._send.close()
         self._receive_end.close()

@@ -1,7 +1,8 @@
 """Where a training run's wall time goes: environment stepping, the policy's forward passes
 during rollouts, the rest of the rollout loop (stable-baselines3's buffers and callbacks) and
 the updates (with :attr:`panda_rapier.ppo.PPO.overlap_updates`, the time the rollouts wait
-for the learner process: its updates otherwise run while the next rollout is collected).
+for the learner process, its start-up included: its updates otherwise run while the next
+rollout is collected).
 
 :class:`PhaseClock` is a stable-baselines3 callback. It times each rollout (from
 ``on_rollout_start`` to ``on_rollout_end``) and each update (the time between a rollout's end

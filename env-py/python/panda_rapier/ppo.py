@@ -117,12 +117,16 @@ class PPO(stable_baselines3.PPO):
         from .overlap import UpdateProcess
 
         iteration = 0
-        total_timesteps, callback = self._setup_learn(
-            total_timesteps, callback, reset_num_timesteps, tb_log_name, progress_bar
-        )
-        callback.on_training_start(locals(), globals())
-        assert self.env is not None
-        with UpdateProcess(self) as learner:
+        # The learner process imports its libraries while the run sets up (callbacks such as
+        # FitNormalizerCallback work in on_training_start), then starts from the model as the
+        # first rollout finds it.
+        with UpdateProcess() as learner:
+            total_timesteps, callback = self._setup_learn(
+                total_timesteps, callback, reset_num_timesteps, tb_log_name, progress_bar
+            )
+            callback.on_training_start(locals(), globals())
+            assert self.env is not None
+            learner.load(self)
             while self.num_timesteps < total_timesteps:
                 more = self.collect_rollouts(
                     self.env, callback, self.rollout_buffer, n_rollout_steps=self.n_steps
