@@ -5,14 +5,13 @@
     panda-rapier eval --policy bc.zip
 
 Loads the dataset with ``minari.load_dataset``, turns its episodes into (state, action) rows
-(``panda_rapier.demos.to_demonstrations``), fits an SB3 PPO ``MultiInputPolicy`` (3x256 ReLU,
-observations standardised inside the network) to the actions by mean squared error, evaluates
-it on seeded test episodes of the environment the dataset was recorded on (rebuilt from the
-dataset's spec) and saves it with that environment recorded, so ``panda-rapier eval --policy``
-needs no other flag. Plain cloning from 200 episodes reaches about 0.6-0.7 success; DAgger
-(``panda-rapier train --algo bc``) takes it past 0.95, since it labels the learner's own states.
-Needs the ``train`` and ``demos`` extras.
-"""
+(``panda_rapier.learning.demos.to_demonstrations``), fits an SB3 PPO ``MultiInputPolicy``
+(3x256 ReLU, observations standardised inside the network) to the actions by mean squared
+error, evaluates it on seeded test episodes of the environment the dataset was recorded on
+(rebuilt from the dataset's spec) and saves it with that environment recorded, so
+``panda-rapier eval --policy`` needs no other flag. Plain cloning from 200 episodes reaches
+about 0.6-0.7 success; DAgger (``panda-rapier train --algo bc``) takes it past 0.95, since it
+labels the learner's own states. Needs the ``train`` and ``demos`` extras."""
 
 from __future__ import annotations
 
@@ -23,12 +22,13 @@ import minari
 import torch as th
 from stable_baselines3 import PPO
 
-from panda_rapier.demos import to_demonstrations
-from panda_rapier.evaluation import evaluate
-from panda_rapier.imitation import behaviour_cloning
-from panda_rapier.normalization import NormalizedFlatten, fit_normalizers
+from panda_rapier.agents.evaluation import evaluate
+from panda_rapier.agents.model_file import save_model
+from panda_rapier.learning.demos import to_demonstrations
+from panda_rapier.learning.imitation import behaviour_cloning
+from panda_rapier.learning.normalization import NormalizedFlatten, fit_normalizers
+from panda_rapier.learning.runs import versions
 from panda_rapier.sb3 import make_vec_env
-from panda_rapier.training import save_model, versions
 
 
 def main() -> None:

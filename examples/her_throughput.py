@@ -24,7 +24,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from tqdm import tqdm
 
 import panda_rapier  # noqa: F401  (registers the ids)
-from panda_rapier.training import load_recipe, model_kwargs
+from panda_rapier.learning.recipes import load_recipe, model_kwargs
 
 
 class Timer(BaseCallback):

@@ -19,7 +19,7 @@ from pathlib import Path
 import torch
 from stable_baselines3 import PPO
 
-from panda_rapier.evaluation import evaluate
+from panda_rapier.agents.evaluation import evaluate
 from panda_rapier.registration import env_config
 from panda_rapier.sb3 import make_vec_env
 

@@ -4,19 +4,15 @@
 //! `valgrind --tool=callgrind target/release/examples/profile_frames -- STEPS SIZE [render|none] [RENDER.json]`
 //!
 //! `none` steps the same episodes without drawing, so that the difference of the two counts
-//! is the frames' cost (`scripts/instructions-per-frame`). The default picture is the Python
-//! package's default observation camera (`panda_rapier.pixels.DEFAULT_CAMERA`, no goal
-//! markers); a render configuration file (JSON, as `RenderConfig::from_json` reads it)
+//! is the frames' cost (`scripts/instructions-per-frame`). The default picture is the default
+//! observation camera (`CameraConfig::OBSERVATION`, Python's `panda_rapier.pixels.DEFAULT_CAMERA`,
+//! no goal markers); a render configuration file (JSON, as `RenderConfig::from_json` reads it)
 //! replaces it.
 
 use panda_rapier::env::PandaEnv;
 use panda_rapier::policies::ScriptedPolicy;
-use panda_rapier::render::{RenderConfig, Renderer};
+use panda_rapier::render::{CameraConfig, RenderConfig, Renderer};
 use panda_rapier::task::{EnvConfig, ResetOptions};
-
-/// `panda_rapier.pixels.DEFAULT_CAMERA`, the camera of `obs_mode="proprio+rgb"`.
-const OBSERVATION_CAMERA: &str = r#"{"target": [0.45, 0.05, 0.22], "distance": 1.35,
-    "azimuth": 25.0, "elevation": 35.0, "fov": 45.0}"#;
 
 fn main() -> panda_rapier::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -24,12 +20,18 @@ fn main() -> panda_rapier::Result<()> {
     let size: u32 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(84);
     let draw = args.get(2).is_none_or(|s| s != "none");
     let render = match args.get(3) {
-        Some(path) => std::fs::read_to_string(path).expect("render configuration file"),
-        None => format!(
-            r#"{{"width": {size}, "height": {size}, "show_goal": false, "camera": {OBSERVATION_CAMERA}}}"#
-        ),
+        Some(path) => RenderConfig::from_json(
+            &std::fs::read_to_string(path).expect("render configuration file"),
+        )?,
+        None => RenderConfig {
+            width: size,
+            height: size,
+            show_goal: false,
+            camera: CameraConfig::OBSERVATION,
+            ..RenderConfig::default()
+        },
     };
-    let mut renderer = Renderer::new(RenderConfig::from_json(&render)?)?;
+    let mut renderer = Renderer::new(render)?;
     let config = EnvConfig::default();
     let mut env = PandaEnv::new(config.clone())?;
     let mut policy = ScriptedPolicy::new(&config)?;

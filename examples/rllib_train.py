@@ -7,7 +7,7 @@ one PandaVectorEnv per EnvRunner, the runners spread over a local Ray or a clust
 
 Prints one line per iteration (env steps, episodes, mean return, success rate) and, with
 --json, writes them to a file; --checkpoint saves the algorithm at the end
-(``Algorithm.from_checkpoint`` restores it). The configs come from panda_rapier.rllib.
+(``Algorithm.from_checkpoint`` restores it). The configs come from panda_rapier.scale.rllib.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from typing import Any
 
 import ray
 
-from panda_rapier.rllib import ppo_config, sac_config, tqc_config
+from panda_rapier.scale.rllib import ppo_config, sac_config, tqc_config
 
 BUILDERS = {"ppo": ppo_config, "sac": sac_config, "tqc": tqc_config}
 

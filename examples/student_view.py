@@ -19,7 +19,7 @@ import gymnasium as gym
 import numpy as np
 from render_scripted import write_png
 
-from panda_rapier.student_model import load_student
+from panda_rapier.agents.student_model import load_student
 
 
 def student_view(policy: Path, steps: list[int], seed: int, size: int) -> tuple[np.ndarray, bool]:

@@ -23,7 +23,7 @@ import ray
 import yaml
 from ray import tune
 
-from panda_rapier.tuning import METRICS, TUNE_ALGORITHMS, sb3_tuner
+from panda_rapier.scale.tuning import METRICS, TUNE_ALGORITHMS, sb3_tuner
 
 
 def parse_args() -> argparse.Namespace:

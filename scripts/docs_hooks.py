@@ -248,6 +248,28 @@ def _index(figures: dict[str, Any]) -> str:
     )
 
 
+def on_config(config: Any) -> Any:
+    """The navigation's Tasks section, filled from the registry: ``mkdocs.yml`` lists only
+    ``tasks/index.md`` there, and every registered task's page follows it in registry order, so
+    a new task needs no line in ``mkdocs.yml``."""
+    pages = [f"tasks/{task}.md" for task in _tasks()]
+
+    def fill(items: list[Any]) -> bool:
+        for item in items:
+            if isinstance(item, dict):
+                for title, children in item.items():
+                    if title == "Tasks" and isinstance(children, list):
+                        children[:] = ["tasks/index.md", *pages]
+                        return True
+                    if isinstance(children, list) and fill(children):
+                        return True
+        return False
+
+    if not fill(config["nav"]):
+        raise ValueError("mkdocs.yml: the nav has no Tasks section for the task pages")
+    return config
+
+
 def on_files(files: Any, config: Any) -> Any:
     from mkdocs.structure.files import File
 

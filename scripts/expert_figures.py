@@ -15,7 +15,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 import panda_rapier
-from panda_rapier.evaluation import evaluate
+from panda_rapier.agents.evaluation import evaluate
 from panda_rapier.registration import env_config
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "expert-figures.json"

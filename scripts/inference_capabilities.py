@@ -27,7 +27,7 @@ CHILD = r"""
 import sys, numpy as np, torch
 torch.set_num_threads(1)
 from stable_baselines3 import PPO
-from panda_rapier.inference import PolicyNetwork
+from panda_rapier.agents.inference import PolicyNetwork
 path, rows_file, out = sys.argv[1:4]
 rows = np.load(rows_file)
 obs = {"achieved_goal": rows[:, :3], "desired_goal": rows[:, 3:6], "observation": rows[:, 6:]}
@@ -41,9 +41,9 @@ np.savez(out, torch=torch_actions, native=PolicyNetwork.from_zip(path).act(rows)
 def main(capabilities: list[str]) -> None:
     from tqdm import tqdm
 
-    from panda_rapier.imitation import collect
+    from panda_rapier.agents.model_file import read_run_info
+    from panda_rapier.learning.imitation import collect
     from panda_rapier.registration import env_config
-    from panda_rapier.training import read_run_info
 
     results = {}
     with tempfile.TemporaryDirectory() as folder:

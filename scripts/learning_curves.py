@@ -1,7 +1,7 @@
 """Learning curves of every shipped model, one picture per task (both action modes; the
-students that see, panda_rapier.student, in a picture of their own): success
+students that see, panda_rapier.learning.student, in a picture of their own): success
 and placed rate on validation seeds against env steps and against wall-clock minutes, drawn
-by ``panda_rapier.reporting.plot_curves`` from the runs' evaluation logs kept in
+by ``panda_rapier.tools.reporting.plot_curves`` from the runs' evaluation logs kept in
 ``docs/training-runs/`` (each run's ``run.json`` and ``evaluations.jsonl``; a model is matched
 to its run by the recorded ``panda-rapier train`` command). Run after adding a model:
 
@@ -17,9 +17,9 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from panda_rapier.model_file import read_run_info
+from panda_rapier.agents.model_file import read_run_info
 from panda_rapier.registration import TASK_NAMES, variant
-from panda_rapier.reporting import plot_curves
+from panda_rapier.tools.reporting import plot_curves
 
 ROOT = Path(__file__).resolve().parents[1]
 

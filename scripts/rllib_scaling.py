@@ -5,7 +5,7 @@ those a projection to N nodes (docs/guide/ray.md).
     python scripts/rllib_scaling.py --json docs/rllib-scaling.json
 
 For every (runners, envs per runner) in the grid, with the PPO recipe's config
-(panda_rapier.rllib.ppo_config, PickAndPlaceDense-v0):
+(panda_rapier.scale.rllib.ppo_config, PickAndPlaceDense-v0):
 - sampling: every runner samples ``--fragment`` steps per environment with the policy
   (``runner.sample``), all runners at once; env steps per second of wall time;
 - learning: ``--iterations`` PPO iterations of the recipe's 4,096 steps (after one warm-up),
@@ -30,7 +30,7 @@ import torch
 from tqdm import tqdm
 
 from panda_rapier import PandaVectorEnv, env_config
-from panda_rapier.rllib import ppo_config
+from panda_rapier.scale.rllib import ppo_config
 
 ENV_ID = "panda_rapier/PickAndPlaceDense-v0"
 

@@ -1,7 +1,7 @@
 """The robustness table of the shipped policies that see: each student evaluated on the
 benchmark's first seeds with no visual randomisation, with each kind alone (camera, light,
 colors, noise) and with all of them, side by side with one trained under randomisation
-(``panda_rapier.reporting.robustness_table``). Writes the markdown table into
+(``panda_rapier.tools.reporting.robustness_table``). Writes the markdown table into
 ``docs/guide/pixels.md`` between its markers and the evaluations to
 ``docs/robustness.json``.
 
@@ -14,7 +14,7 @@ import argparse
 import json
 from pathlib import Path
 
-from panda_rapier.reporting import robustness_table
+from panda_rapier.tools.reporting import robustness_table
 
 ROOT = Path(__file__).resolve().parents[1]
 BEGIN, END = "<!-- robustness table: begin -->", "<!-- robustness table: end -->"

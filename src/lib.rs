@@ -5,6 +5,16 @@
 //! through it exactly as users do.
 
 pub use panda_rapier_core::*;
+
+/// The core's [`task`](panda_rapier_core::task) module, with the environment's configuration
+/// beside it as before 0.2 named it (`panda_rapier::task::EnvConfig`): tasks, their registry
+/// and schema, plus [`EnvConfig`], [`ControlMode`] and
+/// [`make_task`](panda_rapier_core::env::make_task) from [`env`](mod@panda_rapier_core::env).
+pub mod task {
+    pub use panda_rapier_core::env::LEGACY_KEYS_REMOVED_IN;
+    pub use panda_rapier_core::env::{make_task, ControlMode, Deprecation, EnvConfig};
+    pub use panda_rapier_core::task::*;
+}
 pub use panda_rapier_policies as policies;
 pub use panda_rapier_render as render;
 

@@ -2,7 +2,7 @@
 //! any thread count (1, 2, 4), for environment `i` whatever the number of environments, and for
 //! a reset with a seed whatever the environment did before.
 
-use panda_rapier::env::PandaEnv;
+use panda_rapier::env::{EeController, EeFrame, PandaEnv};
 use panda_rapier::task::{ControlMode, EnvConfig, ResetOptions};
 use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use rand::{Rng, SeedableRng};
@@ -62,13 +62,38 @@ fn short_episodes() -> EnvConfig {
     }
 }
 
+/// The default configuration and every other way actions drive the arm: `ee_pose` in both
+/// frames, and the operational-space controller for `ee` and `ee_pose`.
+fn every_controller() -> Vec<EnvConfig> {
+    let with = |control_mode, ee_frame, ee_controller| EnvConfig {
+        control_mode,
+        ee_frame,
+        ee_controller,
+        ..short_episodes()
+    };
+    vec![
+        short_episodes(),
+        with(ControlMode::EePose, EeFrame::Base, EeController::Ik),
+        with(ControlMode::EePose, EeFrame::Hand, EeController::Ik),
+        with(ControlMode::Ee, EeFrame::Base, EeController::Osc),
+        with(ControlMode::EePose, EeFrame::Hand, EeController::Osc),
+    ]
+}
+
 #[test]
 fn thread_count_does_not_change_results() {
-    let config = short_episodes();
-    let one = vec_rollout(8, 1, 30, &config);
-    for threads in [2, 4] {
-        let many = vec_rollout(8, threads, 30, &config);
-        assert!(one == many, "{threads} threads differ from 1");
+    for config in every_controller() {
+        let one = vec_rollout(8, 1, 30, &config);
+        for threads in [2, 4] {
+            let many = vec_rollout(8, threads, 30, &config);
+            assert!(
+                one == many,
+                "{threads} threads differ from 1 ({:?}, {:?}, {:?})",
+                config.control_mode,
+                config.ee_frame,
+                config.ee_controller
+            );
+        }
     }
 }
 
@@ -124,7 +149,7 @@ fn episode_bits(env: &mut PandaEnv, seed: u64, steps: usize) -> Vec<u32> {
 
 #[test]
 fn seeded_reset_forgets_history() {
-    for mode in [ControlMode::Ee, ControlMode::Joints] {
+    for mode in ControlMode::ALL {
         let config = EnvConfig {
             control_mode: mode,
             ..EnvConfig::default()

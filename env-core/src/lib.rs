@@ -31,7 +31,9 @@ pub use config::{
     ArmFidelity, CubeConfig, MotorConfig, MultibodyUpdate, PhysicsConfig, PlatformConfig,
     RobotConfig, SimConfig, SolverConfig,
 };
-pub use env::{Controller, EnvSnapshot, PandaEnv};
+pub use env::{
+    ControlMode, Controller, EeController, EeFrame, EnvConfig, EnvSnapshot, OscConfig, PandaEnv,
+};
 pub use error::{Error, Result};
 pub use kinematics::{pointing_down, IkOptions, IkReport, IkSolution, IkWorkspace};
 pub use model::{JointInfo, JointType, LinkInfo, Mimic, RobotModel, Tcp};
@@ -44,10 +46,7 @@ pub use robot::panda::READY as PANDA_READY;
 pub use robot::Robot;
 pub use robot::{Gripper, RobotSpec};
 pub use sensor::Sensor;
-pub use task::{
-    ControlMode, EnvConfig, ObservationLayout, ResetOptions, RewardType, StepInfo, Task, TaskKind,
-    Transition,
-};
+pub use task::{ObservationLayout, ResetOptions, RewardType, StepInfo, Task, TaskKind, Transition};
 pub use vector::{AutoresetMode, PandaVecEnv};
 
 /// Re-exported so users can name the math types of the API without a second nalgebra.

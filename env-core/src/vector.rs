@@ -12,10 +12,11 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::env::EnvConfig;
 use crate::env::PandaEnv;
 use crate::error::{ensure_len, Error, Result};
 use crate::sensor::{Sensor, SensorSlot};
-use crate::task::{EnvConfig, ObservationLayout, ResetOptions, StepInfo, Transition};
+use crate::task::{ObservationLayout, ResetOptions, StepInfo, Transition};
 
 /// What happens when an episode ends inside [`PandaVecEnv::step`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

@@ -173,5 +173,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<evaluation::NativeEvaluation>()?;
     m.add_class::<render::NativeRenderer>()?;
     m.add_class::<render::NativeCameras>()?;
+    render::add_defaults(m)?;
     Ok(())
 }

@@ -13,6 +13,39 @@ use crate::errors::{detached, to_py};
 use crate::evaluation::NativeEvaluation;
 use crate::vector::NativeVecEnv;
 
+/// The default observation camera (`CameraConfig::OBSERVATION`, the camera a policy that sees
+/// uses) as JSON: `panda_rapier.pixels.DEFAULT_CAMERA` reads it (its unset fields are `null`).
+#[pyfunction]
+pub(crate) fn observation_camera_json() -> String {
+    serde_json::to_string(&panda_rapier_render::CameraConfig::OBSERVATION).unwrap_or_default()
+}
+
+/// Adds the render defaults to the module: `DEFAULT_RENDER_WIDTH` and `DEFAULT_RENDER_HEIGHT`
+/// (`RenderConfig::default`'s picture size, which `panda_rapier.rendering` reads) and
+/// [`observation_camera_json`].
+pub(crate) fn add_defaults(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("DEFAULT_RENDER_WIDTH", RenderConfig::DEFAULT_WIDTH)?;
+    m.add("DEFAULT_RENDER_HEIGHT", RenderConfig::DEFAULT_HEIGHT)?;
+    m.add("DEPTH_FAR", f64::from(panda_rapier_render::DEPTH_FAR))?;
+    m.add_function(wrap_pyfunction!(segmentation_ids, m)?)?;
+    m.add_function(wrap_pyfunction!(observation_camera_json, m)?)
+}
+
+/// Every segmentation id a camera can see in the environments `config_json` builds, with what
+/// it stands for (`background`, `floor`, `platform`, `goal`, `object:<name>`,
+/// `link:<name>`), by increasing id (`panda_rapier_render::segmentation`).
+#[pyfunction]
+pub(crate) fn segmentation_ids(py: Python<'_>, config_json: &str) -> PyResult<Vec<(u8, String)>> {
+    // Migration notes were given when the environment was made.
+    let (config, _notes) = panda_rapier_core::EnvConfig::from_json_with_notes(config_json)
+        .map_err(|e| to_py(py, e))?;
+    detached(py, || -> panda_rapier_core::Result<_> {
+        let env = PandaEnv::new(config)?;
+        Ok(panda_rapier_render::segmentation::table(env.simulation()))
+    })?
+    .map_err(|e| to_py(py, e))
+}
+
 /// A renderer with its own frame buffers (size and camera fixed at construction).
 #[pyclass(module = "panda_rapier._native", name = "Renderer")]
 pub struct NativeRenderer {
@@ -101,8 +134,9 @@ impl NativeRenderer {
     }
 }
 
-/// The observation cameras of one environment: their images, one after the other, as one
-/// uint8 array (the same bytes a `PandaVecEnv` with `set_cameras` gives its environments).
+/// The observation cameras of one environment: their entries (colour, depth, segmentation,
+/// point clouds), one after the other, as one uint8 array of their bytes (the same bytes a
+/// `PandaVecEnv` with `set_cameras` gives its environments).
 #[pyclass(module = "panda_rapier._native", name = "Cameras")]
 pub struct NativeCameras {
     cameras: Cameras,
@@ -110,26 +144,39 @@ pub struct NativeCameras {
 
 #[pymethods]
 impl NativeCameras {
-    /// From a JSON list of `{"key": ..., "render": {"width", "height", "camera", "show_goal"}}`.
+    /// From a JSON list of `{"key": ..., "render": {"width", "height", "camera", "show_goal"},
+    /// "modalities": [...], "points": ..., "points_frame": ...}` (the last three optional).
     #[new]
     fn new(py: Python<'_>, cameras_json: &str) -> PyResult<Self> {
         let cameras = Cameras::from_json(cameras_json).map_err(|e| to_py(py, e))?;
         Ok(Self { cameras })
     }
 
-    /// The observation keys, in order.
+    /// The observation keys of the entries, in order.
     #[getter]
     fn keys(&self) -> Vec<String> {
-        self.cameras.keys().to_vec()
+        self.cameras.keys()
     }
 
-    /// Each image's shape `(height, width, 3)`, in order.
+    /// Each entry's shape (`(height, width, 3)` for a colour image), in order.
     #[getter]
-    fn shapes(&self) -> Vec<(usize, usize, usize)> {
+    fn shapes(&self) -> Vec<Vec<usize>> {
         self.cameras.shapes()
     }
 
-    /// The images of the environment's current state, flat (all cameras in order).
+    /// Each entry's element type, `"uint8"` or `"float32"` (little-endian), in order.
+    #[getter]
+    fn dtypes(&self) -> Vec<&'static str> {
+        self.cameras.entries().iter().map(|e| e.dtype).collect()
+    }
+
+    /// Each entry's `(low, high)` value bounds, in order.
+    #[getter]
+    fn bounds(&self) -> Vec<(f64, f64)> {
+        self.cameras.entries().iter().map(|e| e.bounds).collect()
+    }
+
+    /// The entries of the environment's current state, as their bytes (all in order).
     fn observe<'py>(
         &mut self,
         py: Python<'py>,

@@ -47,7 +47,7 @@
 //! Over 600 lines: the refill schedule, the records and their statistics (the one place
 //! evaluations are summarised, for Rust and Python) belong together, and half of it is tests.
 
-use panda_rapier_core::task::EnvConfig;
+use panda_rapier_core::EnvConfig;
 use panda_rapier_core::{AutoresetMode, Error, PandaVecEnv, Result, Sensor};
 
 use crate::ScriptedPolicy;

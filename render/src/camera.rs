@@ -36,6 +36,21 @@ pub struct CameraConfig {
     pub fov: Option<f64>,
 }
 
+impl CameraConfig {
+    /// The default observation camera, the camera a policy that sees uses (Python's
+    /// `panda_rapier.pixels.DEFAULT_CAMERA`, the `rgb` image of `obs_mode="rgb"`, ...): in
+    /// front of the robot, looking down at the pick region and the platform, with the gripper
+    /// in the picture up to about 0.4 m above the floor.
+    pub const OBSERVATION: CameraConfig = CameraConfig {
+        target: Some([0.45, 0.05, 0.22]),
+        distance: Some(1.35),
+        azimuth: Some(25.0),
+        elevation: Some(35.0),
+        eye: None,
+        fov: Some(45.0),
+    };
+}
+
 fn invalid(field: &str, reason: impl Into<String>) -> Error {
     Error::InvalidConfig {
         field: format!("camera.{field}"),

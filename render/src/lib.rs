@@ -22,8 +22,10 @@
 pub mod camera;
 mod look;
 pub mod mesh;
+mod palette;
 pub mod raster;
 mod scene;
+pub mod segmentation;
 mod sensor;
 mod shadow;
 
@@ -31,4 +33,4 @@ pub use camera::{Camera, CameraConfig};
 pub use look::VisualRandomization;
 pub use raster::Frame;
 pub use scene::{RenderConfig, Renderer, MAX_SIZE};
-pub use sensor::{Cameras, ObservationCamera};
+pub use sensor::{Cameras, Entry, Modality, ObservationCamera, PointFrame, DEPTH_FAR, MAX_POINTS};

@@ -8,7 +8,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::camera::Camera;
-use crate::scene::{AMBIENT, DIFFUSE, FLOOR, LIGHT, OBJECTS, PLATFORM};
+use crate::palette::{AMBIENT, DIFFUSE, FLOOR, LIGHT, OBJECTS, PLATFORM};
 
 /// Seeded visual randomisation (domain randomisation) of the pictures [`crate::Renderer::render`]
 /// draws of an environment. Each episode's look (camera pose, light, colours) is drawn from a

@@ -22,6 +22,11 @@ pub struct Frame {
     inv_depth: Vec<f32>,
     /// 1 where a shadow falls, else 0 (bytes, so that eight are tested at once).
     shadow: Vec<u8>,
+    /// The segment id of what is drawn at each pixel (empty unless
+    /// [`Frame::with_segmentation`]): 0 where nothing was drawn.
+    ids: Vec<u8>,
+    /// The segment id [`Frame::fill_triangle`] writes.
+    segment: u8,
 }
 
 /// Relative depth difference under which a shadow triangle counts as lying on the surface
@@ -38,7 +43,33 @@ impl Frame {
             rgb: vec![0; n * 3],
             inv_depth: vec![0.0; n],
             shadow: vec![0; n],
+            ids: Vec::new(),
+            segment: 0,
         }
+    }
+
+    /// The frame with a segment id per pixel (see [`Frame::set_segment`]), or without one.
+    /// Colours and depths are the same bits either way.
+    pub fn with_segmentation(mut self, on: bool) -> Self {
+        let n = self.width as usize * self.height as usize;
+        self.ids = if on { vec![0; n] } else { Vec::new() };
+        self
+    }
+
+    /// The segment id the triangles drawn next write where they are drawn.
+    pub fn set_segment(&mut self, id: u8) {
+        self.segment = id;
+    }
+
+    /// Row-major segment ids, `height * width` (empty without segmentation).
+    pub fn segments(&self) -> &[u8] {
+        &self.ids
+    }
+
+    /// Row-major inverse depths (1/m along the viewing direction), `height * width`; 0 where
+    /// nothing was drawn.
+    pub fn inv_depths(&self) -> &[f32] {
+        &self.inv_depth
     }
 
     /// Width in pixels.
@@ -82,6 +113,7 @@ impl Frame {
         }
         self.inv_depth.fill(0.0);
         self.shadow.fill(0);
+        self.ids.fill(0);
     }
 
     /// Makes this frame a copy of `other` (of the same size), reusing its buffers.
@@ -90,19 +122,33 @@ impl Frame {
         self.rgb.copy_from_slice(&other.rgb);
         self.inv_depth.copy_from_slice(&other.inv_depth);
         self.shadow.copy_from_slice(&other.shadow);
+        self.ids.copy_from_slice(&other.ids);
     }
 
     /// Draws a triangle in `color` where it is closer than what is there.
+    /// With segmentation, the pixels drawn take the current segment id too.
     pub fn fill_triangle(&mut self, v: &[ScreenVertex; 3], color: [u8; 3]) {
         let width = self.width as usize;
         let (rgb, depth) = (&mut self.rgb, &mut self.inv_depth);
-        rasterize(self.width, self.height, v, |x, y, z| {
-            let i = y * width + x;
-            if z > depth[i] {
-                depth[i] = z;
-                rgb[i * 3..i * 3 + 3].copy_from_slice(&color);
-            }
-        });
+        if self.ids.is_empty() {
+            rasterize(self.width, self.height, v, |x, y, z| {
+                let i = y * width + x;
+                if z > depth[i] {
+                    depth[i] = z;
+                    rgb[i * 3..i * 3 + 3].copy_from_slice(&color);
+                }
+            });
+        } else {
+            let (ids, segment) = (&mut self.ids, self.segment);
+            rasterize(self.width, self.height, v, |x, y, z| {
+                let i = y * width + x;
+                if z > depth[i] {
+                    depth[i] = z;
+                    rgb[i * 3..i * 3 + 3].copy_from_slice(&color);
+                    ids[i] = segment;
+                }
+            });
+        }
     }
 
     /// Marks as shadowed the pixels where this triangle lies on the drawn surface (within a

@@ -10,7 +10,9 @@ use serde::{Deserialize, Serialize};
 use crate::camera::{on_screen, Camera, CameraConfig, Projection};
 use crate::look::{episode_key, Look, VisualRandomization};
 use crate::mesh::{map3, tessellate_with, Detail, IndexedMesh, Triangle};
+use crate::palette::{GOAL, HAND, HEADLIGHT, LINK, OBJECTS, SHADOW, SKY_HORIZON, SKY_TOP};
 use crate::raster::{Frame, ScreenVertex};
+use crate::segmentation;
 use crate::shadow::{Edges, Receiver, Shadows};
 
 /// Largest width or height accepted (pixels).
@@ -20,9 +22,9 @@ pub const MAX_SIZE: u32 = 4096;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RenderConfig {
-    /// Width in pixels (1 to [`MAX_SIZE`]; default 720).
+    /// Width in pixels (1 to [`MAX_SIZE`]; default [`RenderConfig::DEFAULT_WIDTH`]).
     pub width: u32,
-    /// Height in pixels (1 to [`MAX_SIZE`]; default 480).
+    /// Height in pixels (1 to [`MAX_SIZE`]; default [`RenderConfig::DEFAULT_HEIGHT`]).
     pub height: u32,
     /// The camera.
     pub camera: CameraConfig,
@@ -36,8 +38,8 @@ pub struct RenderConfig {
 impl Default for RenderConfig {
     fn default() -> Self {
         Self {
-            width: 720,
-            height: 480,
+            width: Self::DEFAULT_WIDTH,
+            height: Self::DEFAULT_HEIGHT,
             camera: CameraConfig::default(),
             show_goal: true,
             randomization: None,
@@ -46,6 +48,11 @@ impl Default for RenderConfig {
 }
 
 impl RenderConfig {
+    /// The default picture width (pixels); Python's `render()` frames default to it too.
+    pub const DEFAULT_WIDTH: u32 = 720;
+    /// The default picture height (pixels).
+    pub const DEFAULT_HEIGHT: u32 = 480;
+
     /// Reads and validates a JSON configuration; unknown keys are rejected.
     pub fn from_json(text: &str) -> Result<Self> {
         let config: Self = serde_json::from_str(text).map_err(|e| Error::InvalidConfig {
@@ -84,24 +91,6 @@ impl RenderConfig {
     }
 }
 
-/// Direction towards the light (normalised in use): high, from the front left.
-pub(crate) const LIGHT: [f64; 3] = [0.4, 0.3, 1.0];
-pub(crate) const AMBIENT: f64 = 0.42;
-pub(crate) const DIFFUSE: f64 = 0.5;
-/// Light from the eye, so faces turned away from the sun keep their shape.
-const HEADLIGHT: f64 = 0.12;
-/// Colour left in shadow, out of 256.
-const SHADOW: u16 = 165;
-
-const SKY_TOP: [f64; 3] = [150.0, 180.0, 215.0];
-const SKY_HORIZON: [f64; 3] = [222.0, 230.0, 238.0];
-pub(crate) const FLOOR: [[u8; 3]; 2] = [[196, 196, 190], [172, 174, 170]];
-pub(crate) const PLATFORM: [u8; 3] = [176, 132, 86];
-/// Object colours, by the object's index in the task's scene (a second cube is blue).
-pub(crate) const OBJECTS: [[u8; 3]; 3] = [[214, 52, 40], [40, 92, 214], [226, 178, 32]];
-const GOAL: [u8; 3] = [40, 190, 80];
-const LINK: [u8; 3] = [236, 236, 236];
-const HAND: [u8; 3] = [70, 70, 76];
 const GOAL_RADIUS: f64 = 0.015;
 
 /// Floor tiles: a checkerboard of this many tiles of this size around the robot.
@@ -255,6 +244,7 @@ impl Renderer {
         let first = match primitives.first() {
             Some(floor) if floor.tag == VisualTag::Floor => {
                 shadow_planes.push(Receiver::unbounded(floor.pose.translation.z));
+                self.frame.set_segment(segmentation::FLOOR);
                 self.clear_with_floor(floor, &light);
                 1
             }
@@ -264,6 +254,7 @@ impl Renderer {
             }
         };
         for (index, p) in primitives.iter().enumerate().skip(first) {
+            self.frame.set_segment(segmentation::id_of(&p.tag));
             let color = match p.tag {
                 VisualTag::Floor => {
                     shadow_planes.push(Receiver::unbounded(p.pose.translation.z));
@@ -291,6 +282,7 @@ impl Renderer {
             self.draw_primitive(index, p, color, &light, casts);
         }
         let markers = if self.config.show_goal { markers } else { &[] };
+        self.frame.set_segment(segmentation::GOAL);
         for (k, marker) in markers.iter().enumerate() {
             let (shape, pose) = match *marker {
                 GoalMarker::Point(at) => (
@@ -331,6 +323,17 @@ impl Renderer {
     /// The last frame drawn.
     pub fn frame(&self) -> &Frame {
         &self.frame
+    }
+
+    /// Whether frames keep a segmentation id per pixel ([`Frame::segments`], ids from
+    /// [`crate::segmentation`]); off by default. Colours and depths are the same bits either
+    /// way.
+    pub fn set_segmentation(&mut self, on: bool) {
+        let has = !self.frame.segments().is_empty();
+        if on != has {
+            self.frame = Frame::new(self.config.width, self.config.height).with_segmentation(on);
+            self.floor_cache = None;
+        }
     }
 
     /// Draws primitive `index` (its mesh cached under that index; the goal markers follow

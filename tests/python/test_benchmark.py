@@ -13,8 +13,8 @@ from typing import Any
 
 import pytest
 
-from panda_rapier.evaluation import evaluate
-from panda_rapier.model_file import read_run_info
+from panda_rapier.agents.evaluation import evaluate
+from panda_rapier.agents.model_file import read_run_info
 from panda_rapier.registration import TASKS, env_config, variant
 
 MODELS = Path(__file__).resolve().parents[2] / "models"
@@ -35,8 +35,8 @@ def test_shipped_model_reproduces_its_recorded_evaluation(name: str) -> None:
     CPU's vector width, on which nothing here depends), every episode's success and placement
     must repeat exactly; elsewhere both rates must not fall significantly below the recorded
     ones (check_reproduction). The README row is the recorded evaluation's."""
-    from panda_rapier.evaluation import check_reproduction
-    from panda_rapier.inference import NATIVE, TORCH, PolicyNetwork, resolve_policy
+    from panda_rapier.agents.evaluation import check_reproduction
+    from panda_rapier.agents.inference import NATIVE, TORCH, PolicyNetwork, resolve_policy
 
     recorded = json.loads((MODELS / "evaluations.json").read_text())[name]
     # The record is this file's: a model replaced without regenerating the table fails here.
@@ -80,8 +80,8 @@ def test_benchmark_baselines_reproduce_their_recorded_evaluations() -> None:
     """The random and scripted rows of models/README.md: every task and action mode with a
     shipped model has both, recorded in evaluations.json, and their first episodes repeat
     (exactly where the outcome fields match, statistically elsewhere)."""
-    from panda_rapier.evaluation import check_reproduction
-    from panda_rapier.inference import resolve_policy
+    from panda_rapier.agents.evaluation import check_reproduction
+    from panda_rapier.agents.inference import resolve_policy
     from panda_rapier.registration import task_id, variant
 
     recorded_all = json.loads((MODELS / "evaluations.json").read_text())
@@ -159,6 +159,6 @@ def test_readme_student_figures_are_the_recorded_evaluation() -> None:
 def test_models_readme_opens_with_the_generators_header() -> None:
     """models/README.md is generated (`panda-rapier models-table models`): its opening text
     is the generator's, so an edit of either shows here, not only after the next run."""
-    from panda_rapier.reporting import _header
+    from panda_rapier.tools.reporting import _header
 
     assert (MODELS / "README.md").read_text().startswith(_header(Path("models"), 1000))

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from panda_rapier import bench
 from panda_rapier.cli import main
+from panda_rapier.tools import bench
 
 
 def console_script() -> list[str]:

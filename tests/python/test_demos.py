@@ -16,7 +16,7 @@ minari = pytest.importorskip("minari")  # the demos extra, installed by the test
 
 from panda_rapier import InvalidArgumentError  # noqa: E402
 from panda_rapier.cli import main  # noqa: E402
-from panda_rapier.demos import DEFAULT_FIRST_SEED, record, to_demonstrations  # noqa: E402
+from panda_rapier.learning.demos import DEFAULT_FIRST_SEED, record, to_demonstrations  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 

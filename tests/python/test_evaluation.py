@@ -1,4 +1,4 @@
-"""panda_rapier.evaluation.evaluate: one native evaluator (refill schedule, per-episode
+"""panda_rapier.agents.evaluation.evaluate: one native evaluator (refill schedule, per-episode
 records) shared with the Rust ``panda_rapier_policies::evaluate``."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from panda_rapier import (
     _native,
 )
 from panda_rapier._native import evaluate_scripted
-from panda_rapier.evaluation import evaluate
+from panda_rapier.agents.evaluation import evaluate
 from panda_rapier.registration import env_config
 
 # Success ends an episode: lengths differ, so refill hands episodes to environments out of
@@ -137,7 +137,7 @@ def test_statistics_are_the_rust_evaluators_and_match_numpy() -> None:
     """One place computes the statistics (the Rust evaluator's ``summarize``); they agree with
     numpy's definitions: population standard deviation, the median of an even count, the
     Wilson interval's edge cases."""
-    from panda_rapier.evaluation import EpisodeRecord, EvaluationReport, wilson_interval
+    from panda_rapier.agents.evaluation import EpisodeRecord, EvaluationReport, wilson_interval
 
     rng = np.random.default_rng(3)
     episodes = [

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import panda_rapier
-from panda_rapier.evaluation import evaluate
+from panda_rapier.agents.evaluation import evaluate
 from panda_rapier.registration import env_config
 
 RECORD = Path(__file__).with_name("id-fingerprints.json")

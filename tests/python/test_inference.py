@@ -1,4 +1,4 @@
-"""The native policy network (panda_rapier.inference): the same actions as torch up to float
+"""The native policy network (panda_rapier.agents.inference): the same actions as torch up to float
 rounding, the same bits on every CPU capability, model files read without unpickling, and the
 reproduction check that compares evaluations across machines."""
 
@@ -26,8 +26,7 @@ from conftest import WritesAFile, hostile_payload, poisoned
 from stable_baselines3 import PPO, SAC, TD3
 
 from panda_rapier import InvalidArgumentError, _common
-from panda_rapier.cli import main
-from panda_rapier.evaluation import (
+from panda_rapier.agents.evaluation import (
     OUTCOME_FIELDS,
     EpisodeRecord,
     EvaluationReport,
@@ -35,8 +34,7 @@ from panda_rapier.evaluation import (
     evaluate,
     evaluation_environment,
 )
-from panda_rapier.imitation import collect
-from panda_rapier.inference import (
+from panda_rapier.agents.inference import (
     NATIVE,
     TORCH,
     PolicyNetwork,
@@ -44,12 +42,18 @@ from panda_rapier.inference import (
     UntrustedModelError,
     load_policy,
 )
-from panda_rapier.model_file import _load_weights, _rebuild_tensor
-from panda_rapier.normalization import NormalizedFlatten, fit_normalizers
+from panda_rapier.agents.model_file import (
+    _load_weights,
+    _rebuild_tensor,
+    load_sb3_model,
+    read_run_info,
+)
+from panda_rapier.agents.student_model import is_student
+from panda_rapier.cli import main
+from panda_rapier.learning.imitation import collect
+from panda_rapier.learning.normalization import NormalizedFlatten, fit_normalizers
 from panda_rapier.registration import env_config
 from panda_rapier.sb3 import make_vec_env
-from panda_rapier.student_model import is_student
-from panda_rapier.training import read_run_info
 
 th.set_num_threads(1)
 
@@ -70,7 +74,7 @@ def _states(name: str) -> np.ndarray:
 def test_native_network_is_the_torch_policy_up_to_rounding(name: str) -> None:
     """The native float64 actions equal torch's float64 forward pass of the same weights to
     float32 rounding, and torch's float32 actions to its float32 error."""
-    model = PPO.load(MODELS / name, device="cpu")
+    model = load_sb3_model(MODELS / name, algo="ppo", trust=True)  # zips of 0.1: quietly
     native = PolicyNetwork.from_zip(MODELS / name)
     assert native.algorithm == "actor-critic" and native.inference == NATIVE
     rows = _states(name)
@@ -98,7 +102,7 @@ _DIGEST = r"""
 import hashlib, sys
 import numpy as np, torch
 torch.set_num_threads(1)
-from panda_rapier.inference import PolicyNetwork
+from panda_rapier.agents.inference import PolicyNetwork
 from stable_baselines3 import PPO
 path, rows = sys.argv[1], np.load(sys.argv[2])
 native = PolicyNetwork.from_zip(path).act(rows)
@@ -388,8 +392,8 @@ EMULATED_STEPS = {"Haswell-v4": 70, "Nehalem": 280}
 _EMULATED = r"""
 import json, sys
 from pathlib import Path
-from panda_rapier.evaluation import check_reproduction, evaluate
-from panda_rapier.inference import PolicyNetwork
+from panda_rapier.agents.evaluation import check_reproduction, evaluate
+from panda_rapier.agents.inference import PolicyNetwork
 folder = Path(sys.argv[1])
 recorded = json.loads(Path(sys.argv[2]).read_text())
 results = {}

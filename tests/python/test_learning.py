@@ -27,15 +27,16 @@ from conftest import hostile_payload, poisoned  # noqa: E402
 from stable_baselines3 import PPO  # noqa: E402
 
 from panda_rapier import ConfigError, InvalidArgumentError, RandomPolicy  # noqa: E402
+from panda_rapier.agents.evaluation import evaluate  # noqa: E402
+from panda_rapier.agents.model_file import RUN_MEMBER, read_run_info  # noqa: E402
 from panda_rapier.cli import main  # noqa: E402
-from panda_rapier.evaluation import evaluate  # noqa: E402
-from panda_rapier.imitation import Demonstrations, behaviour_cloning, collect  # noqa: E402
-from panda_rapier.model_file import RUN_MEMBER, read_run_info  # noqa: E402
-from panda_rapier.normalization import NormalizedFlatten, fit_normalizers  # noqa: E402
-from panda_rapier.phases import PHASES, describe_split  # noqa: E402
+from panda_rapier.learning.imitation import Demonstrations, behaviour_cloning, collect  # noqa: E402
+from panda_rapier.learning.normalization import NormalizedFlatten, fit_normalizers  # noqa: E402
+from panda_rapier.learning.phases import PHASES, describe_split  # noqa: E402
+from panda_rapier.learning.recipes import load_recipe, recipe_validation  # noqa: E402
+from panda_rapier.learning.runner import train  # noqa: E402
 from panda_rapier.registration import env_config  # noqa: E402
 from panda_rapier.sb3 import make_vec_env  # noqa: E402
-from panda_rapier.training import load_recipe, recipe_validation, train  # noqa: E402
 
 th.set_num_threads(1)
 
@@ -215,7 +216,7 @@ def test_train_ppo_checkpoints_and_resumes(tmp_path: Path) -> None:
         "n_envs": 4, "n_steps": 32, "batch_size": 64, "n_epochs": 1,
         "learning_rate": "lin_3e-4",
         "policy_kwargs": "dict(features_extractor_class=NormalizedFlatten, net_arch=[32])",
-        "callback": "panda_rapier.normalization.FitNormalizerCallback",
+        "callback": "panda_rapier.learning.normalization.FitNormalizerCallback",
     })  # fmt: skip
     out = tmp_path / "run"
     common = ["train", "--algo", "ppo", "--env-id", "panda_rapier/PickAndPlaceDense-v0",
@@ -312,7 +313,7 @@ def test_a_recipe_file_says_how_its_runs_validate_stop_and_finish(tmp_path: Path
     assert main([*common, "--out", str(tmp_path / "c"), "--eval-every", "0"]) == 0
     assert json.loads((tmp_path / "c/run.json").read_text())["validation"]["final"] == "last"
     # A reproduced old run (no validation record) keeps what it had: the last weights.
-    from panda_rapier.reporting import _reproducing_command
+    from panda_rapier.tools.reporting import _reproducing_command
 
     old = {"algo": "ppo", "env_id": env_id, "recipe": recipe, "final": None,
            "command": ["panda-rapier", "train", "--algo", "ppo", "--env-id", env_id,
@@ -329,9 +330,9 @@ def test_a_recipe_file_says_how_its_runs_validate_stop_and_finish(tmp_path: Path
 
 
 def test_stop_at_ends_a_run_once_validation_reaches_it() -> None:
-    from panda_rapier.training import _Recorder, stop_reason
+    from panda_rapier.learning.runs import Recorder, stop_reason
 
-    recorder = _Recorder.__new__(_Recorder)
+    recorder = Recorder.__new__(Recorder)
     recorder.best, recorder.since_best = None, 0
     recorder.run = {"env_id": "panda_rapier/LiftDense-v0"}  # nothing to place
     line = {"success_rate": 0.96, "placed_rate": 0.0}
@@ -359,7 +360,7 @@ def test_train_init_from_starts_from_another_models_weights(tmp_path: Path) -> N
     conf = _write_recipe(tmp_path / "ppo.yml", "ppo", {
         "n_envs": 4, "n_steps": 32, "batch_size": 64, "n_epochs": 1,
         "policy_kwargs": "dict(features_extractor_class=NormalizedFlatten, net_arch=[32])",
-        "callback": "panda_rapier.normalization.FitNormalizerCallback",
+        "callback": "panda_rapier.learning.normalization.FitNormalizerCallback",
     })  # fmt: skip
     common = ["train", "--algo", "ppo", "--env-id", "panda_rapier/PickAndPlaceDense-v0",
               "--conf", str(conf), "--quiet", "--eval-every", "0", "--checkpoint-every", "0",
@@ -398,7 +399,7 @@ def _warm_up_recipe(path: Path, env_id: str, n_epochs: int) -> Path:
         "n_envs": 2, "n_steps": 16, "batch_size": 32, "n_epochs": n_epochs,
         "policy_kwargs": "dict(features_extractor_class=NormalizedFlatten, net_arch=dict("
                          "pi=[256, 256, 256], vf=[16]), activation_fn=nn.ReLU, log_std_init=-2.0)",
-        "callback": [{"panda_rapier.finetune.CriticWarmup": {"steps": 100}}],
+        "callback": [{"panda_rapier.learning.finetune.CriticWarmup": {"steps": 100}}],
     }  # fmt: skip
     path.write_text(yaml.safe_dump({env_id: recipe}))
     return path
@@ -456,7 +457,7 @@ def test_patience_counts_from_the_end_of_the_critic_warm_up(tmp_path: Path) -> N
 def test_critic_warmup_refuses_what_it_cannot_do() -> None:
     from sb3_contrib import TQC
 
-    from panda_rapier.finetune import CriticWarmup
+    from panda_rapier.learning.finetune import CriticWarmup
 
     for bad in (-1, 1.5, True):
         with pytest.raises(ValueError, match="whole number"):
@@ -564,12 +565,12 @@ def test_run_labels_tell_seeds_and_recipe_files_apart() -> None:
     """Curves of several runs of one id need legends that differ: a seed other than 0, a
     recipe file other than the package's, SB3's own PPO class and overlapped updates are
     named."""
-    from panda_rapier.reporting import run_label
+    from panda_rapier.tools.reporting import run_label
 
     run = {"algo": "ppo", "env_id": "panda_rapier/PickAndPlaceDense-v0", "seed": 0,
            "env_kwargs": {"reward_weights": {"release": 1.0}},
-           "recipe_file": "panda_rapier/hyperparams/ppo.yml",
-           "algorithm_class": "panda_rapier.ppo.PPO"}  # fmt: skip
+           "recipe_file": "panda_rapier/learning/hyperparams/ppo.yml",
+           "algorithm_class": "panda_rapier.learning.ppo.PPO"}  # fmt: skip
     assert run_label(run) == "ppo PickAndPlaceDense-v0 (dynamic arm, release=1.0)"
     stock = run_label({**run, "algorithm_class": "stable_baselines3.ppo.ppo.PPO"})
     assert stock.endswith("release=1.0, SB3's PPO class)")
@@ -577,6 +578,10 @@ def test_run_labels_tell_seeds_and_recipe_files_apart() -> None:
     assert run_label(older) == stock
     assert run_label({**run, "seed": 2}).endswith("release=1.0, seed 2)")
     assert run_label({**run, "recipe_file": "/tmp/x/ppo-e128.yml"}).endswith(", recipe ppo-e128)")
+    # Runs recorded before 0.2 name the old recipe folder and PPO class: labelled alike.
+    before = {**run, "recipe_file": "panda_rapier/hyperparams/ppo.yml",
+              "algorithm_class": "panda_rapier.ppo.PPO"}  # fmt: skip
+    assert run_label(before) == run_label(run)
     overlapped = run_label({**run, "overlap_updates": True})
     assert overlapped.endswith("release=1.0, updates overlapped)")
     assert run_label({**run, "overlap_updates": False}) == run_label(run)
@@ -585,7 +590,7 @@ def test_run_labels_tell_seeds_and_recipe_files_apart() -> None:
 def test_reproduce_commands_name_the_recipe_an_old_run_used(tmp_path: Path) -> None:
     """A run that read the package's recipe before it changed is reproduced with the recipe
     file in the models folder's ``recipes/`` that trains alike (passed as ``--conf``)."""
-    from panda_rapier.reporting import _reproducing_command
+    from panda_rapier.tools.reporting import _reproducing_command
 
     env_id = "panda_rapier/PickAndPlaceDense-v0"
     today = load_recipe("ppo", env_id)
@@ -648,11 +653,11 @@ def test_train_tqc_with_her_saves_its_replay_buffer_and_resumes(tmp_path: Path) 
 
 
 def test_checkpoint_is_restored_by_data_exactly(tmp_path: Path) -> None:
-    """Rebuilt from the recipe and filled by panda_rapier.checkpoint.restore, the model holds
-    exactly what stable-baselines3's own load gives (policy, optimizer state, counters), and a
+    """Rebuilt from the recipe and filled by panda_rapier.learning.checkpoint.restore, the model
+    holds exactly what stable-baselines3's own load gives (policy, optimizer state, counters), and a
     checkpoint whose pickled entries would write a file runs nothing."""
-    from panda_rapier import checkpoint
-    from panda_rapier.training import load_recipe, model_kwargs
+    from panda_rapier.learning import checkpoint
+    from panda_rapier.learning.recipes import load_recipe, model_kwargs
 
     conf = _write_recipe(tmp_path / "ppo.yml", "ppo", {
         "n_envs": 4, "n_steps": 32, "batch_size": 64, "n_epochs": 2,
@@ -710,7 +715,7 @@ def test_fit_normalizer_callback_on_gym_make_envs() -> None:
     to Gymnasium's TimeLimit; the recipe's callback still fits the normaliser there."""
     from stable_baselines3.common.env_util import make_vec_env as sb3_make_vec_env
 
-    from panda_rapier.normalization import FitNormalizerCallback
+    from panda_rapier.learning.normalization import FitNormalizerCallback
 
     env = sb3_make_vec_env("panda_rapier/PickAndPlaceDense-v0", n_envs=2, seed=0)
     model = _ppo(env, n_steps=16, batch_size=32)
@@ -721,7 +726,7 @@ def test_fit_normalizer_callback_on_gym_make_envs() -> None:
 def test_update_threads_give_the_update_every_core_and_rollouts_one() -> None:
     """torch's thread count follows the phase: rollout threads while the environments step,
     update threads in PPO's gradient steps, and what it was once training ends."""
-    from panda_rapier.threads import UpdateThreads, torch_threads
+    from panda_rapier.learning.threads import UpdateThreads, torch_threads
 
     env = make_vec_env("panda_rapier/ReachDense-v0", n_envs=2, seed=0)
     model = _ppo(env, pi=(16,), n_steps=8, batch_size=16, n_epochs=1)
@@ -754,7 +759,7 @@ def test_min_action_std_keeps_the_gripper_exploring() -> None:
     without a state-independent log_std are refused, not silently ignored."""
     from sb3_contrib import TQC
 
-    from panda_rapier.exploration import MinActionStd
+    from panda_rapier.learning.exploration import MinActionStd
 
     env = make_vec_env("panda_rapier/PickAndPlaceDense-v0", n_envs=2, seed=0, arm="kinematic")
     model = PPO(

@@ -1,4 +1,4 @@
-"""PPO's updates overlapped with the next rollout (``panda_rapier.overlap``): the learner
+"""PPO's updates overlapped with the next rollout (``panda_rapier.learning.overlap``): the learner
 process must compute exactly the schedule it promises (rollout ``k + 1`` collected by the
 policy from before update ``k``), hand back the logs and update count, drop the update in
 flight when a callback stops training, fail with a clear error, and ``train`` / ``bench-train``
@@ -21,9 +21,9 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.logger import Logger
 
 from panda_rapier.errors import InvalidArgumentError
-from panda_rapier.normalization import NormalizedFlatten
-from panda_rapier.overlap import LearnerProcessError, UpdateProcess
-from panda_rapier.ppo import PPO
+from panda_rapier.learning.normalization import NormalizedFlatten
+from panda_rapier.learning.overlap import LearnerProcessError, UpdateProcess
+from panda_rapier.learning.ppo import PPO
 from panda_rapier.sb3 import make_vec_env
 
 ENV_ID = "panda_rapier/ReachDense-v0"
@@ -148,7 +148,8 @@ def test_a_stop_inside_a_rollout_drops_the_update_in_flight() -> None:
 
 
 def test_parameters_frozen_in_the_main_process_stay_frozen_in_the_learner() -> None:
-    """What ``panda_rapier.finetune.CriticWarmup`` does: the actor frozen, the critic trains."""
+    """What ``panda_rapier.learning.finetune.CriticWarmup`` does: the actor frozen, the critic
+    trains."""
     model = _model()
     for parameter in model.policy.action_net.parameters():
         parameter.requires_grad_(False)
@@ -203,7 +204,7 @@ def test_a_failing_learner_process_raises_a_typed_error_with_its_traceback() -> 
 
 
 def test_train_records_the_option_and_refuses_it_where_it_does_not_apply(tmp_path: Path) -> None:
-    from panda_rapier.training import train
+    from panda_rapier.learning.runner import train
 
     conf = tmp_path / "ppo.yml"
     conf.write_text(

@@ -171,7 +171,8 @@ def test_the_goal_marker_is_left_out_unless_asked_for() -> None:
 @pytest.mark.parametrize(
     "kwargs",
     [
-        {"obs_mode": "depth"},
+        {"obs_mode": "heat"},
+        {"obs_mode": "depth", "image_size": 0},
         {"obs_mode": "rgb", "image_size": 0},
         {"obs_mode": "rgb", "image_size": (84,)},
         {"obs_mode": "rgb", "image_size": True},
@@ -227,7 +228,7 @@ def test_proprio_rgb_carries_no_object_state(env_id: str) -> None:
 
 
 def test_a_model_s_image_options_are_read_off_its_space() -> None:
-    from panda_rapier.model_file import model_observation
+    from panda_rapier.agents.model_file import model_observation
 
     for mode in ("rgb", "state+rgb", "proprio+rgb"):
         env = gym.make(ENV_ID, obs_mode=mode, image_size=(48, 64))
@@ -258,7 +259,7 @@ def test_the_scripted_policy_needs_the_state() -> None:
 
 
 def test_bench_measures_image_observations() -> None:
-    from panda_rapier.bench import format_report, run_benchmark
+    from panda_rapier.tools.bench import format_report, run_benchmark
 
     report = run_benchmark(
         num_envs=[2],
@@ -282,8 +283,8 @@ def test_pixel_ppo_trains_evaluates_and_reloads(tmp_path: Path) -> None:
     from stable_baselines3 import PPO
     from stable_baselines3.common.torch_layers import NatureCNN
 
+    from panda_rapier.agents.evaluation import evaluate
     from panda_rapier.cli import main
-    from panda_rapier.evaluation import evaluate
     from panda_rapier.sb3 import make_vec_env
 
     torch.set_num_threads(1)
@@ -441,9 +442,9 @@ def test_a_model_on_flat_observations_evaluates_in_flat_mode(tmp_path: Path) -> 
     observations: its space says so (``model_observation``), and ``panda-rapier eval``'s
     resolver builds that environment."""
     sb3 = pytest.importorskip("stable_baselines3")
-    from panda_rapier.evaluation import evaluate
-    from panda_rapier.inference import resolve_policy
-    from panda_rapier.model_file import model_observation
+    from panda_rapier.agents.evaluation import evaluate
+    from panda_rapier.agents.inference import resolve_policy
+    from panda_rapier.agents.model_file import model_observation
     from panda_rapier.sb3 import make_vec_env
 
     env = make_vec_env(ENV_ID, n_envs=2, seed=0, obs_mode="flat")

@@ -1,4 +1,4 @@
-"""``panda_rapier.ppo.PPO``: stable-baselines3's PPO with cheaper loops must do SB3's
+"""``panda_rapier.learning.ppo.PPO``: stable-baselines3's PPO with cheaper loops must do SB3's
 arithmetic: from the same weights, rollout and generator state, its update ends at SB3's
 weights (to float32 rounding) and logs the same statistics; its rollouts take the same actions
 and bootstrap the same rewards; policies it cannot compute leanly take SB3's own update."""
@@ -17,8 +17,8 @@ import torch as th
 from stable_baselines3.common.callbacks import CallbackList
 from stable_baselines3.common.logger import Logger
 
-from panda_rapier.normalization import NormalizedFlatten
-from panda_rapier.ppo import PPO, lean_update_applies
+from panda_rapier.learning.normalization import NormalizedFlatten
+from panda_rapier.learning.ppo import PPO, lean_update_applies
 from panda_rapier.sb3 import make_vec_env
 
 ENV_ID = "panda_rapier/PickAndPlaceDense-v0"

@@ -1,6 +1,6 @@
 """Scale-out on Ray, on a real local Ray (2 CPUs): RLlib (new API stack) with the native vector
-env in every EnvRunner (panda_rapier.rllib), Ray Tune over the stable-baselines3 recipes
-(panda_rapier.tuning), and the two example scripts.
+env in every EnvRunner (panda_rapier.scale.rllib), Ray Tune over the stable-baselines3 recipes
+(panda_rapier.scale.tuning), and the two example scripts.
 
 Over 600 lines: one local Ray session (started once, module-scoped) serves every test of the
 RLlib configs, connectors, recipe module and Tune sweeps; splitting the file would start Ray
@@ -33,7 +33,7 @@ from ray.rllib.utils.metrics.metrics_logger import MetricsLogger
 
 from panda_rapier import ConfigError, InvalidArgumentError, PandaVectorEnv, env_config
 from panda_rapier._common import DICT_KEYS
-from panda_rapier.rllib import (
+from panda_rapier.scale.rllib import (
     MAX_RUN_SEED,
     RLLIB_FIRST_SEED,
     EpisodeOutcomes,
@@ -47,7 +47,7 @@ from panda_rapier.rllib import (
     sampled_actions_to_env,
     tqc_config,
 )
-from panda_rapier.tuning import METRICS, check_sweep, sb3_trainable, sb3_tuner
+from panda_rapier.scale.tuning import METRICS, check_sweep, sb3_trainable, sb3_tuner
 
 ROOT = Path(__file__).resolve().parents[2]
 DENSE = "panda_rapier/PickAndPlaceDense-v0"
@@ -287,7 +287,7 @@ def test_batched_connectors_sample_what_rllib_s_default_pipeline_samples(
 
 
 def test_batched_connectors_refuse_recurrent_modules() -> None:
-    from panda_rapier.rllib import FlatObservationsToModule, SampledActionsToEnv
+    from panda_rapier.scale.rllib import FlatObservationsToModule, SampledActionsToEnv
 
     class Recurrent:
         def is_stateful(self) -> bool:
@@ -303,7 +303,7 @@ def test_flat_observations_go_to_the_runner_s_device() -> None:
     there); here the CPU, by name."""
     import torch
 
-    from panda_rapier.rllib import flat_observations_to_module
+    from panda_rapier.scale.rllib import flat_observations_to_module
 
     class Stateless:
         def is_stateful(self) -> bool:
@@ -474,9 +474,9 @@ def test_tune_sweep_of_tqc_her_reports_success_rate(ray_session: None, tmp_path:
 
 
 def test_ppo_config_follows_the_sb3_recipe() -> None:
-    from panda_rapier.rllib import recipe_training
-    from panda_rapier.rllib_recipe import RecipePPOTorchRLModule
-    from panda_rapier.training import load_recipe
+    from panda_rapier.learning.recipes import load_recipe
+    from panda_rapier.scale.rllib import recipe_training
+    from panda_rapier.scale.rllib_recipe import RecipePPOTorchRLModule
 
     recipe = load_recipe("ppo", DENSE)
     settings = recipe_training(recipe)
@@ -550,10 +550,10 @@ def test_exported_policy_acts_as_the_module(tmp_path: Path) -> None:
     import torch
     from ray.rllib.core.columns import Columns
 
-    from panda_rapier.inference import PolicyNetwork
-    from panda_rapier.model_file import read_run_info
-    from panda_rapier.rllib_recipe import export_policy
-    from panda_rapier.training import load_recipe
+    from panda_rapier.agents.inference import PolicyNetwork
+    from panda_rapier.agents.model_file import read_run_info
+    from panda_rapier.learning.recipes import load_recipe
+    from panda_rapier.scale.rllib_recipe import export_policy
 
     module = _recipe_module()
     with torch.no_grad():

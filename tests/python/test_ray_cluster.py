@@ -22,7 +22,7 @@ from ray.cluster_utils import Cluster
 
 from panda_rapier import PandaVectorEnv, env_config
 from panda_rapier._common import DICT_KEYS
-from panda_rapier.rllib import ppo_config, runner_seed
+from panda_rapier.scale.rllib import ppo_config, runner_seed
 
 DENSE = "panda_rapier/PickAndPlaceDense-v0"
 SEED = 5
@@ -219,7 +219,7 @@ def test_tune_retries_a_trial_whose_node_dies_from_its_last_checkpoint(
     import json
     import threading
 
-    from panda_rapier.tuning import sb3_tuner
+    from panda_rapier.scale.tuning import sb3_tuner
 
     fresh = [cluster.add_node(num_cpus=1) for _ in range(2)]
     cluster.wait_for_nodes()

@@ -1,4 +1,4 @@
-"""Policies that see (panda_rapier.student): the encoder, the DAgger loop with a privileged
+"""Policies that see (panda_rapier.learning.student): the encoder, the DAgger loop with a privileged
 teacher improving a student on a tiny budget, ``panda-rapier train --algo bc`` on images, and
 the student's model file read by data (evaluable without trusting the file)."""
 
@@ -17,22 +17,22 @@ import torch as th
 from stable_baselines3 import PPO
 
 from panda_rapier import cli
-from panda_rapier.errors import ConfigError, InvalidArgumentError
-from panda_rapier.evaluation import evaluate
-from panda_rapier.inference import resolve_policy
-from panda_rapier.pixels import randomization_of
-from panda_rapier.registration import env_config
-from panda_rapier.reporting import ROBUSTNESS_CONDITIONS, robustness_table
-from panda_rapier.sb3 import make_vec_env
-from panda_rapier.student import collect_student, distil
-from panda_rapier.student_model import (
+from panda_rapier.agents.evaluation import evaluate
+from panda_rapier.agents.inference import resolve_policy
+from panda_rapier.agents.student_model import (
     PixelEncoder,
     SpatialSoftArgmax,
     load_student,
     policy_kwargs,
     student_architecture,
 )
-from panda_rapier.training import train
+from panda_rapier.errors import ConfigError, InvalidArgumentError
+from panda_rapier.learning.runner import train
+from panda_rapier.learning.student import collect_student, distil
+from panda_rapier.pixels import randomization_of
+from panda_rapier.registration import env_config
+from panda_rapier.sb3 import make_vec_env
+from panda_rapier.tools.reporting import ROBUSTNESS_CONDITIONS, robustness_table
 
 ENV_ID = "panda_rapier/PickAndPlace-v0"
 #: A small image keeps the tests quick; the shipped recipe's size is in the recipe.
@@ -255,7 +255,7 @@ FINETUNE = {
     "n_epochs": 1,
     "learning_rate": 1e-3,
     "policy_kwargs": "dict(log_std_init=-2.0, share_features_extractor=False)",
-    "callback": [{"panda_rapier.finetune.CriticWarmup": {"steps": 128}}],
+    "callback": [{"panda_rapier.learning.finetune.CriticWarmup": {"steps": 128}}],
 }
 
 

@@ -13,8 +13,8 @@ yaml = pytest.importorskip("yaml")
 
 from panda_rapier import ConfigError, InvalidArgumentError  # noqa: E402
 from panda_rapier.cli import main  # noqa: E402
-from panda_rapier.phases import PHASES, describe_split  # noqa: E402
-from panda_rapier.train_bench import benchmark_training, parse_variant  # noqa: E402
+from panda_rapier.learning.phases import PHASES, describe_split  # noqa: E402
+from panda_rapier.tools.train_bench import benchmark_training, parse_variant  # noqa: E402
 
 TINY = ["n_envs=4", "n_steps=16", "batch_size=32", "policy_kwargs=dict(net_arch=[16])"]
 
@@ -80,15 +80,15 @@ def test_bench_train_measures_every_variant_in_every_round(
 
 
 def test_train_names_the_class_that_trained(tmp_path: Path) -> None:
-    """``panda-rapier train`` trains PPO with panda_rapier.ppo.PPO, SB3's own on request,
+    """``panda-rapier train`` trains PPO with panda_rapier.learning.ppo.PPO, SB3's own on request,
     and says which in run.json."""
     conf = tmp_path / "tiny.yml"
     conf.write_text(yaml.safe_dump({"panda_rapier/ReachDense-v0": {
         "n_envs": 4, "n_steps": 16, "batch_size": 32, "n_epochs": 1,
         "policy": "MultiInputPolicy", "policy_kwargs": "dict(net_arch=[16])"}}))  # fmt: skip
-    from panda_rapier.training import train
+    from panda_rapier.learning.runner import train
 
-    for stock, name in ((False, "panda_rapier.ppo.PPO"),
+    for stock, name in ((False, "panda_rapier.learning.ppo.PPO"),
                         (True, "stable_baselines3.ppo.ppo.PPO")):  # fmt: skip
         out = tmp_path / f"run-{stock}"
         run = train("ppo", "panda_rapier/ReachDense-v0", out, conf=conf, timesteps=64,

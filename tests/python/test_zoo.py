@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 import panda_rapier
-from panda_rapier.training import default_recipe_path
+from panda_rapier.learning.recipes import default_recipe_path
 
 
 def test_rl_zoo3_trains_ppo_with_our_recipe_and_logs_success(tmp_path: Path) -> None:

@@ -1,10 +1,21 @@
 //! The composition root: [`PandaEnv`], one environment instance of any [`Task`] (reset, step,
 //! snapshot), with the robot, its action [`Controller`], the world and the episode bookkeeping
-//! every task shares. It depends on `task`, `robot` and `physics`; none of them depends on it.
+//! every task shares; its configuration [`EnvConfig`] (with [`ControlMode`]), which builds a
+//! task from the task's section and a [`TaskContext`](crate::task::TaskContext)
+//! ([`make_task`]); and the reader of configurations from before 0.2 ([`migrate`]). It depends
+//! on `task`, `robot` and `physics`; none of them depends on it.
 
+pub mod config;
 pub mod controller;
+pub mod migrate;
+pub mod osc;
+#[cfg(test)]
+mod task_section_tests;
 
+pub use config::{make_task, ControlMode, EeController, EeFrame, EnvConfig};
 pub use controller::{Controller, Plan};
+pub use migrate::{Deprecation, LEGACY_KEYS_REMOVED_IN};
+pub use osc::{Osc, OscConfig};
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -12,12 +23,11 @@ use rand_chacha::ChaCha8Rng;
 use crate::error::{Error, Result};
 use crate::physics::{SimSnapshot, Simulation};
 use crate::robot::RobotSpec;
-use crate::task::config::EnvConfig;
 use crate::task::episode::{EpisodeStart, ResetOptions, StepInfo, Transition};
 use crate::task::observation::{
     ObservationLayout, GRIPPER_WIDTH, JOINT_POSITIONS, JOINT_VELOCITIES, TCP_POSITION, TCP_VELOCITY,
 };
-use crate::task::{make_task, Task, Verdict, View};
+use crate::task::{Task, Verdict, View};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Status {
@@ -153,7 +163,7 @@ impl PandaEnv {
         let sim_config = config.sim_config()?;
         let robot = RobotSpec::new(&sim_config)?;
         let mut task = make_task(&config);
-        let scene = task.scene(&config);
+        let scene = task.build_scene();
         let sim = Simulation::with_scene(sim_config, robot.model().clone(), scene)?;
         task.bind(&sim)?;
         let layout = ObservationLayout::new(

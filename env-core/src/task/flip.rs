@@ -50,18 +50,20 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::config::{Range, Region};
+use super::config::{validate_cube_start, Range, Region};
+use super::context::TaskContext;
 use super::episode::{cube_orientation, CubeProperties, TaskInfo};
 use super::registry::{TaskDescriptor, TaskSpec};
-use super::{EnvConfig, EpisodeStart, GoalMarker, ResetOptions, SlotSpec, Task, Verdict, View};
+use super::{EpisodeStart, GoalMarker, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::config::{invalid, CubeConfig};
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, ObjectSpec, Scene, Simulation};
+use crate::task::base::cube::write_cube_slots;
+use crate::task::base::{canonical, norm, term_field};
 use crate::task::config::RewardType;
 use crate::task::observation::InfoField;
-use crate::task::pick_and_place::{canonical, norm, term_field, write_cube_slots};
 use crate::task::reward::cube_terms::REACH;
-use crate::task::reward::{closeness, compute_batch_with, resolve_weights, RewardTerm};
+use crate::task::reward::{closeness, compute_batch_with, RewardTerm};
 
 /// Size of each goal: a unit quaternion.
 const GOAL_DIM: usize = 4;
@@ -165,8 +167,8 @@ impl TaskSpec for Flip {
     // expert's `joints` success: 88.9 % at 0.05, 96.2 % at 0.1, of 1,000).
     const ID_JOINT_STEP: Option<f64> = Some(0.1);
 
-    fn validate(section: &FlipConfig, _config: &EnvConfig) -> Result<()> {
-        EnvConfig::validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
+    fn validate(section: &FlipConfig, _context: &TaskContext) -> Result<()> {
+        validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
         let t = section.angle_threshold;
         if !(t.is_finite() && t > 0.0 && t <= std::f64::consts::PI) {
             return Err(invalid(
@@ -181,13 +183,10 @@ impl TaskSpec for Flip {
         Some(&section.cube)
     }
 
-    fn build(section: &FlipConfig, config: &EnvConfig) -> Self {
-        let weights = resolve_weights(Self::DESCRIPTOR.reward_terms, &config.reward_weights);
+    fn build(section: &FlipConfig, context: &TaskContext) -> Self {
         Self {
             section: section.clone(),
-            config: config.clone(),
-            reach_weight: weights[REACH.name],
-            orient_weight: weights[ORIENT.name],
+            context: context.clone(),
             cube: None,
         }
     }
@@ -197,11 +196,7 @@ impl TaskSpec for Flip {
 #[derive(Debug, Clone)]
 pub struct Flip {
     section: FlipConfig,
-    config: EnvConfig,
-    /// The `reach` term's weight.
-    reach_weight: f64,
-    /// The `orient` term's weight.
-    orient_weight: f64,
+    context: TaskContext,
     cube: Option<ObjectId>,
 }
 
@@ -252,8 +247,8 @@ impl Flip {
     fn judge(&self, achieved: &[f32], desired: &[f32], reach: f32) -> (bool, f64, f32, f32) {
         let (angle, alignment) = orientation_distance(achieved, desired);
         let is_success = angle < self.section.angle_threshold;
-        let orient = (self.orient_weight * alignment) as f32;
-        let reward = match self.config.reward_type {
+        let orient = (self.context.reward_weights.orient * alignment) as f32;
+        let reward = match self.context.reward_type {
             RewardType::Sparse => {
                 if is_success {
                     0.0
@@ -272,7 +267,7 @@ impl Task for Flip {
         &Self::DESCRIPTOR
     }
 
-    fn scene(&self, _config: &EnvConfig) -> Scene {
+    fn build_scene(&self) -> Scene {
         Scene {
             objects: vec![ObjectSpec::cube(
                 "cube",
@@ -304,7 +299,6 @@ impl Task for Flip {
     }
 
     fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart) {
-        let config = &self.config;
         let mut draw = || rng.random::<f64>();
         // Always the same draws in the same order, whatever the overrides.
         let cube_xy = self.section.cube_region.lerp([draw(), draw()]);
@@ -315,7 +309,7 @@ impl Task for Flip {
         let friction_u = draw();
         let properties = CubeProperties::draw(
             &self.section.cube,
-            &config.randomization,
+            &self.context.randomization,
             [size_u, mass_u, friction_u],
         );
         let cube = properties.resting(
@@ -362,13 +356,13 @@ impl Task for Flip {
     fn evaluate(&self, view: &View<'_>) -> Verdict {
         let l = view.layout;
         let obs = view.observation;
-        let reach =
-            self.reach_weight as f32 * closeness(norm(&obs[l.task_slot(RELATIVE_POSITION)]));
+        let reach = self.context.reward_weights.reach as f32
+            * closeness(norm(&obs[l.task_slot(RELATIVE_POSITION)]));
         let (is_success, angle, reward, orient) =
             self.judge(&obs[l.achieved_goal()], &obs[l.desired_goal()], reach);
         let mut info = TaskInfo::new(&INFO_FIELDS);
         info.set(REACH.info_key, reach);
-        if self.config.reward_type == RewardType::Dense {
+        if self.context.reward_type == RewardType::Dense {
             info.set(ORIENT.info_key, orient);
         }
         Verdict {
@@ -386,7 +380,7 @@ impl Task for Flip {
         contexts: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
-        let needs_context = self.config.reward_type == RewardType::Dense;
+        let needs_context = self.context.reward_type == RewardType::Dense;
         compute_batch_with(
             achieved,
             desired,
@@ -407,7 +401,10 @@ mod tests {
 
     #[test]
     fn panda_layout_matches_the_documented_table() {
-        let task = Flip::build(&Default::default(), &EnvConfig::default());
+        let task = Flip::build(
+            &Default::default(),
+            &TaskContext::defaults(Flip::DESCRIPTOR.reward_terms),
+        );
         crate::task::observation::assert_documented_layout(&task, include_str!("flip.rs"), 49);
     }
 
@@ -422,7 +419,10 @@ mod tests {
     fn goals_are_uniform_orientations() {
         // The angle from the identity of a uniform rotation is below t with probability
         // (t - sin t) / pi; about 4 % below the threshold.
-        let task = Flip::build(&Default::default(), &EnvConfig::default());
+        let task = Flip::build(
+            &Default::default(),
+            &TaskContext::defaults(Flip::DESCRIPTOR.reward_terms),
+        );
         let mut rng = ChaCha8Rng::seed_from_u64(0);
         let mut start = EpisodeStart::default();
         let n = 20_000;

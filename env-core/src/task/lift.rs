@@ -20,17 +20,17 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::config::{validate_range, Range, Region};
+use super::base::cube::{judged_as_cube_task, CubeTask, IS_GRASPED, IS_LIFTED};
+use super::base::term_field;
+use super::config::{validate_cube_start, validate_range, Range, Region};
+use super::context::TaskContext;
 use super::episode::{cube_orientation, CubeProperties, CUBE_REGION, CUBE_YAW_RANGE};
 use super::registry::{TaskDescriptor, TaskSpec};
-use super::{EnvConfig, EpisodeStart, ResetOptions, Task};
-use crate::config::CubeConfig;
+use super::{EpisodeStart, ResetOptions, Task};
+use crate::config::{CubeConfig, PlatformConfig};
 use crate::error::Result;
 use crate::physics::{ObjectSpec, Scene};
 use crate::task::observation::InfoField;
-use crate::task::pick_and_place::{
-    term_field, PickAndPlace, PickAndPlaceConfig, IS_GRASPED, IS_LIFTED,
-};
 use crate::task::reward::cube_terms::{CARRY, GRASP, LIFT, REACH};
 
 /// The task's own info entries.
@@ -89,8 +89,8 @@ impl TaskSpec for Lift {
         ("lift_height", "goal_height"),
     ];
 
-    fn validate(section: &LiftConfig, _config: &EnvConfig) -> Result<()> {
-        EnvConfig::validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
+    fn validate(section: &LiftConfig, _context: &TaskContext) -> Result<()> {
+        validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
         validate_range("task.goal_height", section.goal_height, 0.0)
     }
 
@@ -98,17 +98,17 @@ impl TaskSpec for Lift {
         Some(&section.cube)
     }
 
-    fn build(section: &LiftConfig, config: &EnvConfig) -> Self {
-        // Pick-and-place's observation, predicates and reward with this section's cube (its
-        // `lift` term keeps pick-and-place's default platform height as its scale).
-        let as_pick_and_place = PickAndPlaceConfig {
-            cube: section.cube.clone(),
-            ..PickAndPlaceConfig::default()
-        };
+    fn build(section: &LiftConfig, context: &TaskContext) -> Self {
         Self {
             section: section.clone(),
-            config: config.clone(),
-            cube_task: PickAndPlace::cube_task(&as_pick_and_place, config, &Self::DESCRIPTOR),
+            context: context.clone(),
+            // The cube task's observation, predicates and reward with this task's terms (its
+            // `lift` term keeps pick-and-place's default platform height as its scale).
+            cube_task: CubeTask::new(
+                &Self::DESCRIPTOR,
+                context,
+                PlatformConfig::default().top_center[2],
+            ),
         }
     }
 }
@@ -117,9 +117,9 @@ impl TaskSpec for Lift {
 #[derive(Debug, Clone)]
 pub struct Lift {
     section: LiftConfig,
-    config: EnvConfig,
-    /// Observation, judgement and reward are pick-and-place's.
-    cube_task: PickAndPlace,
+    context: TaskContext,
+    /// The cube, its observation, predicates and reward.
+    cube_task: CubeTask,
 }
 
 impl Task for Lift {
@@ -127,7 +127,7 @@ impl Task for Lift {
         &Self::DESCRIPTOR
     }
 
-    fn scene(&self, _config: &EnvConfig) -> Scene {
+    fn build_scene(&self) -> Scene {
         // The section's cube, without the platform.
         Scene {
             platform: None,
@@ -148,7 +148,6 @@ impl Task for Lift {
     }
 
     fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart) {
-        let config = &self.config;
         let mut draw = || rng.random::<f64>();
         // Always the same draws in the same order, whatever the overrides.
         let cube_xy = self.section.cube_region.lerp([draw(), draw()]);
@@ -159,7 +158,7 @@ impl Task for Lift {
         let friction_u = draw();
         let properties = CubeProperties::draw(
             &self.section.cube,
-            &config.randomization,
+            &self.context.randomization,
             [size_u, mass_u, friction_u],
         );
         let cube = properties.resting(
@@ -178,5 +177,5 @@ impl Task for Lift {
     }
 
     // Observation, judgement and reward: pick-and-place's.
-    crate::task::pick_and_place::judged_as_pick_and_place!();
+    judged_as_cube_task!();
 }

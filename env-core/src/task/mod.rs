@@ -1,20 +1,35 @@
 //! Tasks on top of the robot and the [`crate::Simulation`]: what a task is ([`Task`]), the
-//! registry of tasks, the configuration, the observation and info schema, and rewards (the
-//! environment every task runs in is [`crate::env::PandaEnv`]). Nothing here touches the physics engine; it goes through
-//! [`crate::Simulation`].
+//! registry of tasks, the task side of the configuration, the observation and info schema, and
+//! rewards (the environment every task runs in, and its configuration, are [`crate::env`]'s).
+//! Nothing here touches the physics engine; it goes through [`crate::Simulation`].
 //!
 //! A task decides the scene (platform and objects), how an episode starts, its goals, the
 //! observation entries it adds after the robot's, and its reward and success predicates. The
 //! robot, its action controller, episode bookkeeping, blow-up detection and snapshots are the
-//! environment's, the same for every task. The tasks: [`PickAndPlace`], [`Reach`], [`Lift`],
-//! [`Stack`], [`Push`], [`slide::Slide`], [`flip::Flip`]; adding one is a new file here implementing [`Task`] and
-//! [`TaskSpec`] and one line in the [`registry`].
+//! environment's, the same for every task. A task is built from its own section of the
+//! configuration and a [`TaskContext`] (the options it reads), never the whole configuration.
+//!
+//! The tasks are the [`registry`]'s list ([`TaskKind::ALL`], one file each here); adding one is a
+//! new file implementing [`Task`] and [`TaskSpec`] and one line in the registry. What several
+//! tasks share (a cube to carry, its observation slots, predicates and judgement; helpers of
+//! observations and info) is in `base`, which names no task; no task file names another.
+//!
+//! Module layout (imports point down this list; the registry names every task, and tasks name
+//! the registry's descriptor types):
+//!
+//! - [`registry`]: the tasks, their descriptors and configuration sections;
+//! - one file per task ([`pick_and_place`], [`reach`], [`lift`], [`stack`], [`push`],
+//!   [`slide`], [`flip`]);
+//! - `base`: what tasks share;
+//! - [`context`], [`config`], [`episode`], [`observation`], [`reward`]: the types tasks are
+//!   made of.
 
+pub(crate) mod base;
 pub mod config;
+pub mod context;
 pub mod episode;
 pub mod flip;
 pub mod lift;
-pub mod migrate;
 pub mod observation;
 pub mod pick_and_place;
 pub mod push;
@@ -26,12 +41,13 @@ pub mod stack;
 
 use rand_chacha::ChaCha8Rng;
 
-pub use config::{ControlMode, EnvConfig, Randomization, Region, RewardType, TaskThresholds};
+pub use config::{Randomization, Region, RewardType, TaskThresholds};
+pub use context::TaskContext;
 pub use episode::{
     EpisodeStart, ObjectStart, ResetOptions, StepInfo, TaskInfo, Transition, TASK_INFO_CAPACITY,
 };
+pub use flip::{Flip, FlipConfig};
 pub use lift::{Lift, LiftConfig};
-pub use migrate::{Deprecation, LEGACY_KEYS_REMOVED_IN};
 pub use observation::{
     info_field, InfoField, InfoType, InfoValue, ObservationLayout, Slot, SlotSource, SlotSpec,
     COMMON_INFO_FIELDS,
@@ -39,8 +55,9 @@ pub use observation::{
 pub use pick_and_place::{PickAndPlace, PickAndPlaceConfig};
 pub use push::{Push, PushConfig};
 pub use reach::{Reach, ReachConfig};
-pub use registry::{make_task, TaskConfig, TaskDescriptor, TaskKind, TaskSpec};
+pub use registry::{TaskConfig, TaskDescriptor, TaskKind, TaskSpec};
 pub use reward::{RewardContext, RewardFunction, RewardTerm, RewardTerms, RewardWeights};
+pub use slide::{Slide, SlideConfig};
 pub use stack::{Stack, StackConfig};
 
 use crate::error::Result;
@@ -117,10 +134,11 @@ pub trait Task: Send + Sync + std::fmt::Debug {
         self.descriptor().name
     }
 
-    /// The platform and objects the world must hold.
-    fn scene(&self, config: &EnvConfig) -> Scene;
+    /// The platform and objects the world must hold, from the task's own section (the
+    /// environment also offers it as `scene(&config)` on a `dyn Task`).
+    fn build_scene(&self) -> Scene;
 
-    /// Finds the task's objects in the world built from [`Task::scene`].
+    /// Finds the task's objects in the world built from [`Task::build_scene`].
     fn bind(&mut self, sim: &Simulation) -> Result<()>;
 
     /// Length of each goal.

@@ -116,19 +116,6 @@ pub struct ObservationLayout {
 }
 
 impl ObservationLayout {
-    /// The layout of the environments `config` builds, without building one.
-    pub fn for_config(config: &crate::task::EnvConfig) -> crate::Result<Self> {
-        config.validate()?;
-        let robot = crate::robot::RobotSpec::new(&config.sim_config()?)?;
-        let task = crate::task::make_task(config);
-        Ok(Self::new(
-            robot.movable_joints().len(),
-            task.goal_dim(),
-            task.goal_descriptions(),
-            task.observation_slots(),
-        ))
-    }
-
     /// The layout for a robot with `num_joints` moving joints (9 for the Panda) and a task with
     /// goals of `goal_dim` entries and its own `task_slots`.
     pub fn new(

@@ -22,7 +22,8 @@
 //! | 44..47 | `observation` 38..41 | `cube_relative_position` | 3 | cube centre minus TCP position |
 //!
 //! The first seven rows are every task's (goals and [`super::observation::ROBOT_SLOTS`]); the
-//! last five are this task's ([`PickAndPlace::observation_slots`](super::Task::observation_slots)).
+//! last five are the cube's ([`PickAndPlace::observation_slots`](super::Task::observation_slots),
+//! shared with lift, push and slide).
 //!
 //! # Starting state
 //! The cube on the floor at a uniform position in `task.cube_region` with a uniform yaw in
@@ -39,46 +40,24 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::config::{validate_range, Range, Region};
+use super::base::cube::{judged_as_cube_task, CubeTask, IS_GRASPED, IS_LIFTED, IS_PLACED};
+use super::base::term_field;
+use super::config::{
+    validate_cube_start, validate_platform_regions, validate_range, Range, Region,
+};
+use super::context::TaskContext;
 use super::episode::{
     cube_orientation, CubeProperties, CUBE_REGION, CUBE_YAW_RANGE, PLATFORM_GOAL_REGION,
 };
+use super::observation::{info_field, InfoField, InfoType};
 use super::registry::{TaskDescriptor, TaskSpec};
-use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use super::reward::cube_terms::{CARRY, GRASP, LIFT, PLACE, REACH, RELEASE};
+use super::reward::{RewardContext, RewardFunction};
+use super::{EpisodeStart, ResetOptions, Task};
 use crate::config::invalid;
 use crate::config::{CubeConfig, PlatformConfig};
 use crate::error::Result;
-use crate::physics::{BodyState, ObjectId, ObjectSpec, Scene, Simulation};
-use crate::task::episode::TaskInfo;
-use crate::task::observation::{info_field, InfoField, InfoType};
-use crate::task::reward::cube_terms::{CARRY, GRASP, LIFT, PLACE, REACH, RELEASE};
-use crate::task::reward::{
-    closeness, GoalVerdict, RewardContext, RewardFunction, RewardTerm, RewardWeights,
-};
-
-/// `is_grasped`, an info entry of the cube tasks.
-pub(crate) const IS_GRASPED: InfoField = info_field(
-    "is_grasped",
-    InfoType::Bool,
-    "both fingers squeeze the cube with at least the grasp force",
-);
-/// `is_lifted`, an info entry of the cube tasks.
-pub(crate) const IS_LIFTED: InfoField = info_field(
-    "is_lifted",
-    InfoType::Bool,
-    "grasped and touching neither the floor nor the platform",
-);
-/// `is_placed`: the "placed" predicate.
-const IS_PLACED: InfoField = info_field(
-    "is_placed",
-    InfoType::Bool,
-    "released, at rest, on the platform and within the threshold",
-);
-
-/// The info entry reporting a reward term, weighted.
-pub(crate) const fn term_field(term: RewardTerm) -> InfoField {
-    info_field(term.info_key, InfoType::Float, term.description)
-}
+use crate::physics::{ObjectSpec, Scene};
 
 /// The task's own info entries.
 const INFO_FIELDS: [InfoField; 12] = [
@@ -107,73 +86,6 @@ const INFO_FIELDS: [InfoField; 12] = [
         "the cube touches the platform",
     ),
 ];
-
-/// The cube tasks' info: every field of `fields` from the predicates, the reward context and
-/// the goal verdict (a field no cube task reports is a bug, caught in debug builds).
-pub(crate) fn cube_task_info(
-    fields: &'static [InfoField],
-    is_grasped: bool,
-    is_lifted: bool,
-    context: &RewardContext,
-    goal: &GoalVerdict,
-) -> TaskInfo {
-    let mut info = TaskInfo::new(fields);
-    let t = &goal.terms;
-    // Filled by position: one pass over the fields, no lookups.
-    for (i, field) in fields.iter().enumerate() {
-        match field.key {
-            "is_grasped" => info.set_at(i, is_grasped),
-            "is_lifted" => info.set_at(i, is_lifted),
-            "is_placed" => info.set_at(i, goal.is_placed),
-            "reward_reach" => info.set_at(i, context.reach),
-            "reward_grasp" => info.set_at(i, context.grasp),
-            "reward_lift" => info.set_at(i, context.lift),
-            "reward_carry" => info.set_at(i, t.carry),
-            "reward_place" => info.set_at(i, t.place),
-            "reward_release" => info.set_at(i, t.release),
-            "cube_released" => info.set_at(i, context.cube_released),
-            "cube_at_rest" => info.set_at(i, context.cube_at_rest),
-            "cube_on_platform" => info.set_at(i, context.cube_on_platform),
-            other => debug_assert!(false, "no cube info entry {other:?}"),
-        }
-    }
-    info
-}
-
-/// The task's observation slots, after the robot's.
-const SLOTS: [SlotSpec; 5] = [
-    SlotSpec {
-        name: "cube_position",
-        size: Some(3),
-        description: "cube centre (same as achieved_goal)",
-    },
-    SlotSpec {
-        name: "cube_orientation",
-        size: Some(4),
-        description: "unit quaternion x, y, z, w with w >= 0",
-    },
-    SlotSpec {
-        name: "cube_linear_velocity",
-        size: Some(3),
-        description: "cube centre velocity",
-    },
-    SlotSpec {
-        name: "cube_angular_velocity",
-        size: Some(3),
-        description: "cube angular velocity",
-    },
-    SlotSpec {
-        name: "cube_relative_position",
-        size: Some(3),
-        description: "cube centre minus TCP position",
-    },
-];
-const LINEAR_VELOCITY: usize = 2;
-const ANGULAR_VELOCITY: usize = 3;
-const RELATIVE_POSITION: usize = 4;
-
-/// Size of the goal: a position.
-const GOAL_DIM: usize = 3;
 
 /// The `pick_and_place` section of the configuration (`{"task": {"name": "pick_and_place",
 /// ...}}`).
@@ -235,8 +147,8 @@ impl TaskSpec for PickAndPlace {
         ("goal_air_height", "goal_air_height"),
     ];
 
-    fn validate(section: &PickAndPlaceConfig, config: &EnvConfig) -> Result<()> {
-        EnvConfig::validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
+    fn validate(section: &PickAndPlaceConfig, context: &TaskContext) -> Result<()> {
+        validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
         section.goal_region.validate("task.goal_region")?;
         validate_range("task.goal_air_height", section.goal_air_height, 0.0)?;
         let p = section.goal_air_probability;
@@ -246,7 +158,8 @@ impl TaskSpec for PickAndPlace {
                 format!("must be in [0, 1], got {p}"),
             ));
         }
-        config.validate_platform_regions(
+        validate_platform_regions(
+            &context.randomization,
             &section.platform,
             &section.cube,
             &section.cube_region,
@@ -262,8 +175,12 @@ impl TaskSpec for PickAndPlace {
         Some(&section.platform)
     }
 
-    fn build(section: &PickAndPlaceConfig, config: &EnvConfig) -> Self {
-        Self::cube_task(section, config, &Self::DESCRIPTOR)
+    fn build(section: &PickAndPlaceConfig, context: &TaskContext) -> Self {
+        Self {
+            section: section.clone(),
+            context: context.clone(),
+            cube_task: CubeTask::new(&Self::DESCRIPTOR, context, section.platform.top_center[2]),
+        }
     }
 }
 
@@ -271,100 +188,24 @@ impl TaskSpec for PickAndPlace {
 #[derive(Debug, Clone)]
 pub struct PickAndPlace {
     section: PickAndPlaceConfig,
-    config: EnvConfig,
-    descriptor: &'static TaskDescriptor,
-    reward: RewardFunction,
-    cube: Option<ObjectId>,
+    context: TaskContext,
+    /// The cube, its observation, predicates and reward.
+    cube_task: CubeTask,
 }
-
-/// The [`Task`] methods of a task that observes, judges and rewards as pick-and-place does
-/// (lift, push, slide), each handed to its `cube_task` field (a [`PickAndPlace`] made by
-/// [`PickAndPlace::cube_task`]): `bind`, `goal_dim`, `observation_slots`, `observe`,
-/// `evaluate` and `compute_rewards`. Invoked inside the task's `impl Task`, which adds the
-/// rest (its descriptor, scene, goal descriptions and episode draw).
-macro_rules! judged_as_pick_and_place {
-    () => {
-        fn bind(&mut self, sim: &$crate::physics::Simulation) -> $crate::error::Result<()> {
-            self.cube_task.bind(sim)
-        }
-
-        fn goal_dim(&self) -> usize {
-            self.cube_task.goal_dim()
-        }
-
-        fn observation_slots(&self) -> &'static [$crate::task::SlotSpec] {
-            self.cube_task.observation_slots()
-        }
-
-        fn observe(
-            &self,
-            sim: &$crate::physics::Simulation,
-            tcp: &$crate::physics::BodyState,
-            goal: &[f64],
-            achieved: &mut [f64],
-            extras: &mut [f64],
-        ) {
-            self.cube_task.observe(sim, tcp, goal, achieved, extras)
-        }
-
-        fn evaluate(&self, view: &$crate::task::View<'_>) -> $crate::task::Verdict {
-            self.cube_task.evaluate(view)
-        }
-
-        fn compute_rewards(
-            &self,
-            achieved: &[f32],
-            desired: &[f32],
-            contexts: &[f32],
-            out: &mut [f32],
-        ) -> $crate::error::Result<()> {
-            self.cube_task
-                .compute_rewards(achieved, desired, contexts, out)
-        }
-    };
-}
-pub(crate) use judged_as_pick_and_place;
 
 impl PickAndPlace {
-    /// The task with the descriptor (info entries, reward terms and context) of `as_task`: a
-    /// cube task that observes and judges as pick-and-place does ([`crate::task::Lift`],
-    /// [`crate::task::Push`]).
-    pub(crate) fn cube_task(
-        section: &PickAndPlaceConfig,
-        config: &EnvConfig,
-        as_task: &'static TaskDescriptor,
-    ) -> Self {
-        Self {
-            section: section.clone(),
-            config: config.clone(),
-            reward: RewardFunction {
-                reward_type: config.reward_type,
-                success_threshold: config.success_threshold,
-                weights: RewardWeights::resolve(as_task.reward_terms, &config.reward_weights),
-            },
-            descriptor: as_task,
-            cube: None,
-        }
-    }
-
     /// The reward function ([`RewardFunction::compute_batch`] is `compute_reward`).
     pub fn reward_function(&self) -> &RewardFunction {
-        &self.reward
-    }
-
-    /// The cube's handle in the bound world.
-    pub(crate) fn cube(&self) -> ObjectId {
-        // `bind` runs before any episode; an unbound task reads object 0, the only object.
-        self.cube.unwrap_or_else(ObjectId::first)
+        self.cube_task.reward_function()
     }
 }
 
 impl Task for PickAndPlace {
     fn descriptor(&self) -> &'static TaskDescriptor {
-        self.descriptor
+        &Self::DESCRIPTOR
     }
 
-    fn scene(&self, _config: &EnvConfig) -> Scene {
+    fn build_scene(&self) -> Scene {
         Scene {
             platform: Some(self.section.platform.clone()),
             objects: vec![ObjectSpec::cube(
@@ -376,25 +217,11 @@ impl Task for PickAndPlace {
         }
     }
 
-    fn bind(&mut self, sim: &Simulation) -> Result<()> {
-        self.cube = Some(sim.object("cube")?);
-        Ok(())
-    }
-
-    fn goal_dim(&self) -> usize {
-        GOAL_DIM
-    }
-
     fn goal_descriptions(&self) -> [&'static str; 2] {
         ["cube centre position", "goal position for the cube centre"]
     }
 
-    fn observation_slots(&self) -> &'static [SlotSpec] {
-        &SLOTS
-    }
-
     fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart) {
-        let config = &self.config;
         let section = &self.section;
         let mut draw = || rng.random::<f64>();
         // Always the same draws in the same order: overrides and switched-off randomisation do
@@ -409,7 +236,7 @@ impl Task for PickAndPlace {
         let friction_u = draw();
         let properties = CubeProperties::draw(
             &section.cube,
-            &config.randomization,
+            &self.context.randomization,
             [size_u, mass_u, friction_u],
         );
         let size = properties.size;
@@ -423,7 +250,7 @@ impl Task for PickAndPlace {
             goal = Vector3::from(g);
         }
         let cube = properties.resting(
-            self.cube(),
+            self.cube_task.cube(),
             cube_xy,
             options.cube_position,
             cube_orientation(section.cube_yaw_range, yaw_u, options),
@@ -431,113 +258,8 @@ impl Task for PickAndPlace {
         start.set([cube], goal.iter().copied());
     }
 
-    fn observe(
-        &self,
-        sim: &Simulation,
-        tcp: &BodyState,
-        _goal: &[f64],
-        achieved: &mut [f64],
-        extras: &mut [f64],
-    ) {
-        let cube = sim.object_state(self.cube());
-        achieved.copy_from_slice(cube.position.as_slice());
-        write_cube_slots(&cube, tcp, extras);
-    }
-
-    fn evaluate(&self, view: &View<'_>) -> Verdict {
-        let t = &self.config.thresholds;
-        let cube = self.cube();
-        let touch = view.sim.object_touch(cube);
-        let l = view.layout;
-        let obs = view.observation;
-        let cube_speed = norm(&obs[l.task_slot(LINEAR_VELOCITY)]);
-        let cube_spin = norm(&obs[l.task_slot(ANGULAR_VELOCITY)]);
-        let reach_distance = norm(&obs[l.task_slot(RELATIVE_POSITION)]);
-        let cube_z = obs[l.achieved_goal()][2] as f64;
-        let (size, _, _) = view.sim.object_properties(cube);
-        let platform_height = self.section.platform.top_center[2];
-        let is_grasped = touch.finger_forces.iter().all(|&f| f >= t.grasp_force);
-        let lift = lift_fraction(cube_z, size, platform_height);
-        let w = &self.reward.weights;
-        let context = RewardContext {
-            reach: w.reach as f32 * closeness(reach_distance),
-            grasp: if is_grasped { w.grasp as f32 } else { 0.0 },
-            lift: w.lift as f32 * lift as f32,
-            cube_released: !touch.robot_touching(),
-            cube_at_rest: cube_speed < t.rest_linear_speed && cube_spin < t.rest_angular_speed,
-            cube_on_platform: touch.platform,
-            gripper_opening: view.gripper_opening as f32,
-        };
-        let verdict =
-            self.reward
-                .evaluate(&obs[l.achieved_goal()], &obs[l.desired_goal()], &context);
-        let is_lifted = is_grasped && !touch.floor && !touch.platform;
-        Verdict {
-            is_success: verdict.is_success,
-            goal_distance: verdict.distance,
-            reward: verdict.reward,
-            info: cube_task_info(
-                self.descriptor.info_fields,
-                is_grasped,
-                is_lifted,
-                &context,
-                &verdict,
-            ),
-        }
-    }
-
-    fn compute_rewards(
-        &self,
-        achieved: &[f32],
-        desired: &[f32],
-        contexts: &[f32],
-        out: &mut [f32],
-    ) -> Result<()> {
-        let keys = self.descriptor.reward_context_keys;
-        self.reward
-            .compute_batch(achieved, desired, keys, contexts, out)
-    }
-}
-
-/// Writes a cube's five observation slots ([`SLOTS`]: position, orientation as x, y, z, w with
-/// w >= 0, linear and angular velocity, position relative to the TCP) into `out`.
-pub(crate) fn write_cube_slots(cube: &BodyState, tcp: &BodyState, out: &mut [f64]) {
-    let relative = cube.position - tcp.position;
-    let values: [&[f64]; 5] = [
-        cube.position.as_slice(),
-        &canonical(&cube.orientation),
-        cube.linear_velocity.as_slice(),
-        cube.angular_velocity.as_slice(),
-        relative.as_slice(),
-    ];
-    for (o, v) in out.iter_mut().zip(values.iter().flat_map(|s| s.iter())) {
-        *o = *v;
-    }
-}
-
-/// `q` as x, y, z, w with w >= 0, as observations carry orientations.
-pub(crate) fn canonical(q: &nalgebra::UnitQuaternion<f64>) -> [f64; 4] {
-    let c = if q.w < 0.0 { -q.coords } else { q.coords };
-    [c.x, c.y, c.z, c.w]
-}
-
-/// The `lift` term before its weight: the height of a cube (centre `cube_z`, edge `size`)
-/// above its floor resting height over the platform's height, clipped to [0, 1]; 0 without a
-/// platform.
-pub(crate) fn lift_fraction(cube_z: f64, size: f64, platform_height: f64) -> f64 {
-    if platform_height > 0.0 {
-        ((cube_z - size / 2.0) / platform_height).clamp(0.0, 1.0)
-    } else {
-        0.0
-    }
-}
-
-/// The Euclidean norm of an observation slot, computed in f64 from its f32 values.
-pub(crate) fn norm(v: &[f32]) -> f64 {
-    v.iter()
-        .map(|&x| (x as f64) * (x as f64))
-        .sum::<f64>()
-        .sqrt()
+    // Observation, judgement and reward: the cube task's, with this task's terms.
+    judged_as_cube_task!();
 }
 
 #[cfg(test)]
@@ -546,7 +268,10 @@ mod tests {
 
     #[test]
     fn panda_layout_matches_the_documented_table() {
-        let task = PickAndPlace::build(&Default::default(), &EnvConfig::default());
+        let task = PickAndPlace::build(
+            &Default::default(),
+            &TaskContext::defaults(PickAndPlace::DESCRIPTOR.reward_terms),
+        );
         crate::task::observation::assert_documented_layout(
             &task,
             include_str!("pick_and_place.rs"),

@@ -49,17 +49,17 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::config::{Range, Region};
+use super::base::cube::{judged_as_cube_task, CubeTask, IS_GRASPED, IS_LIFTED};
+use super::base::term_field;
+use super::config::{validate_cube_start, Range, Region};
+use super::context::TaskContext;
 use super::episode::{cube_orientation, CubeProperties, CUBE_REGION, CUBE_YAW_RANGE};
 use super::registry::{TaskDescriptor, TaskSpec};
-use super::{EnvConfig, EpisodeStart, ResetOptions, Task};
-use crate::config::CubeConfig;
+use super::{EpisodeStart, ResetOptions, Task};
+use crate::config::{CubeConfig, PlatformConfig};
 use crate::error::Result;
 use crate::physics::{ObjectSpec, Scene};
 use crate::task::observation::InfoField;
-use crate::task::pick_and_place::{
-    term_field, PickAndPlace, PickAndPlaceConfig, IS_GRASPED, IS_LIFTED,
-};
 use crate::task::reward::cube_terms::{CARRY, REACH, RELEASE};
 
 /// The task's own info entries.
@@ -123,8 +123,8 @@ impl TaskSpec for Push {
         ("push_goal_region", "goal_region"),
     ];
 
-    fn validate(section: &PushConfig, _config: &EnvConfig) -> Result<()> {
-        EnvConfig::validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
+    fn validate(section: &PushConfig, _context: &TaskContext) -> Result<()> {
+        validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
         section.goal_region.validate("task.goal_region")
     }
 
@@ -132,17 +132,17 @@ impl TaskSpec for Push {
         Some(&section.cube)
     }
 
-    fn build(section: &PushConfig, config: &EnvConfig) -> Self {
-        // Pick-and-place's observation, predicates and reward with this section's cube (its
-        // `lift` term keeps pick-and-place's default platform height as its scale).
-        let as_pick_and_place = PickAndPlaceConfig {
-            cube: section.cube.clone(),
-            ..PickAndPlaceConfig::default()
-        };
+    fn build(section: &PushConfig, context: &TaskContext) -> Self {
         Self {
             section: section.clone(),
-            config: config.clone(),
-            cube_task: PickAndPlace::cube_task(&as_pick_and_place, config, &Self::DESCRIPTOR),
+            context: context.clone(),
+            // The cube task's observation, predicates and reward with this task's terms (its
+            // `lift` term keeps pick-and-place's default platform height as its scale).
+            cube_task: CubeTask::new(
+                &Self::DESCRIPTOR,
+                context,
+                PlatformConfig::default().top_center[2],
+            ),
         }
     }
 }
@@ -151,9 +151,9 @@ impl TaskSpec for Push {
 #[derive(Debug, Clone)]
 pub struct Push {
     section: PushConfig,
-    config: EnvConfig,
-    /// Observation, predicates and the reward function are pick-and-place's.
-    cube_task: PickAndPlace,
+    context: TaskContext,
+    /// The cube, its observation, predicates and reward.
+    cube_task: CubeTask,
 }
 
 impl Task for Push {
@@ -161,7 +161,7 @@ impl Task for Push {
         &Self::DESCRIPTOR
     }
 
-    fn scene(&self, _config: &EnvConfig) -> Scene {
+    fn build_scene(&self) -> Scene {
         // The section's cube, without the platform.
         Scene {
             platform: None,
@@ -182,7 +182,6 @@ impl Task for Push {
     }
 
     fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart) {
-        let config = &self.config;
         let mut draw = || rng.random::<f64>();
         // Always the same draws in the same order, whatever the overrides.
         let cube_xy = self.section.cube_region.lerp([draw(), draw()]);
@@ -193,7 +192,7 @@ impl Task for Push {
         let friction_u = draw();
         let properties = CubeProperties::draw(
             &self.section.cube,
-            &config.randomization,
+            &self.context.randomization,
             [size_u, mass_u, friction_u],
         );
         let cube = properties.resting(
@@ -211,7 +210,7 @@ impl Task for Push {
 
     // Pick-and-place's judgement with this task's terms: nothing is paid for holding the
     // cube (`grasp` and `lift` weigh 0) and there is no platform to place it on.
-    crate::task::pick_and_place::judged_as_pick_and_place!();
+    judged_as_cube_task!();
 }
 
 #[cfg(test)]
@@ -220,15 +219,18 @@ mod tests {
 
     #[test]
     fn panda_layout_matches_the_documented_table() {
-        let task = Push::build(&Default::default(), &EnvConfig::default());
+        let task = Push::build(
+            &Default::default(),
+            &TaskContext::defaults(Push::DESCRIPTOR.reward_terms),
+        );
         crate::task::observation::assert_documented_layout(&task, include_str!("push.rs"), 47);
     }
 
     #[test]
     fn goals_lie_on_the_floor_clear_of_the_start() {
         use rand::SeedableRng;
-        let config = EnvConfig::for_task(crate::task::TaskKind::Push);
-        let task = Push::build(&Default::default(), &config);
+        let context = TaskContext::defaults(Push::DESCRIPTOR.reward_terms);
+        let task = Push::build(&Default::default(), &context);
         let mut rng = ChaCha8Rng::seed_from_u64(0);
         let mut start = EpisodeStart::default();
         for _ in 0..200 {
@@ -237,7 +239,7 @@ mod tests {
             let goal = Vector3::from_column_slice(&start.goal);
             assert_eq!(goal.z, CubeConfig::default().size / 2.0);
             assert_eq!(cube.z, goal.z);
-            assert!((goal - cube).norm() >= config.success_threshold);
+            assert!((goal - cube).norm() >= context.success_threshold);
         }
     }
 }

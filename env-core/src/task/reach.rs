@@ -30,17 +30,16 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::config::validate_range;
+use super::context::TaskContext;
 use super::registry::{TaskDescriptor, TaskSpec};
-use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use super::{EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::error::Result;
 use crate::physics::{BodyState, Scene, Simulation};
+use crate::task::base::term_field;
 use crate::task::config::RewardType;
 use crate::task::episode::TaskInfo;
 use crate::task::observation::InfoField;
-use crate::task::pick_and_place::term_field;
-use crate::task::reward::{
-    closeness, compute_batch_with, RewardFunction, RewardTerm, RewardWeights, GOAL_DIM,
-};
+use crate::task::reward::{closeness, compute_batch_with, RewardFunction, RewardTerm, GOAL_DIM};
 
 /// The reward's one term.
 const REACH: RewardTerm = RewardTerm {
@@ -88,7 +87,7 @@ impl TaskSpec for Reach {
     const LEGACY_KEYS: &'static [(&'static str, &'static str)] =
         &[("reach_goal_region", "goal_region")];
 
-    fn validate(section: &ReachConfig, _config: &EnvConfig) -> Result<()> {
+    fn validate(section: &ReachConfig, _context: &TaskContext) -> Result<()> {
         let [low, high] = section.goal_region;
         for i in 0..3 {
             validate_range("task.goal_region", [low[i], high[i]], f64::NEG_INFINITY)?;
@@ -96,11 +95,10 @@ impl TaskSpec for Reach {
         Ok(())
     }
 
-    fn build(section: &ReachConfig, config: &EnvConfig) -> Self {
+    fn build(section: &ReachConfig, context: &TaskContext) -> Self {
         Self {
             section: section.clone(),
-            config: config.clone(),
-            weight: RewardWeights::resolve(&[REACH], &config.reward_weights).reach,
+            context: context.clone(),
         }
     }
 }
@@ -109,17 +107,15 @@ impl TaskSpec for Reach {
 #[derive(Debug, Clone)]
 pub struct Reach {
     section: ReachConfig,
-    config: EnvConfig,
-    /// The `reach` term's weight.
-    weight: f64,
+    context: TaskContext,
 }
 
 impl Reach {
     /// The reward for one pair of goals.
     fn reward(&self, achieved: &[f32], desired: &[f32]) -> (f64, bool, f32) {
         let distance = RewardFunction::distance(achieved, desired);
-        let success = distance < self.config.success_threshold;
-        let reward = match self.config.reward_type {
+        let success = distance < self.context.success_threshold;
+        let reward = match self.context.reward_type {
             RewardType::Sparse => {
                 if success {
                     0.0
@@ -127,7 +123,7 @@ impl Reach {
                     -1.0
                 }
             }
-            RewardType::Dense => self.weight as f32 * closeness(distance),
+            RewardType::Dense => self.context.reward_weights.reach as f32 * closeness(distance),
         };
         (distance, success, reward)
     }
@@ -138,7 +134,7 @@ impl Task for Reach {
         &Self::DESCRIPTOR
     }
 
-    fn scene(&self, _config: &EnvConfig) -> Scene {
+    fn build_scene(&self) -> Scene {
         // An empty world: the robot and the floor.
         Scene::default()
     }
@@ -188,7 +184,7 @@ impl Task for Reach {
         let (distance, is_success, reward) =
             self.reward(&obs[l.achieved_goal()], &obs[l.desired_goal()]);
         let mut info = TaskInfo::new(&INFO_FIELDS);
-        if self.config.reward_type == RewardType::Dense {
+        if self.context.reward_type == RewardType::Dense {
             info.set("reward_reach", reward);
         }
         Verdict {
@@ -226,7 +222,10 @@ mod tests {
 
     #[test]
     fn panda_layout_matches_the_documented_table() {
-        let task = Reach::build(&Default::default(), &EnvConfig::default());
+        let task = Reach::build(
+            &Default::default(),
+            &TaskContext::defaults(Reach::DESCRIPTOR.reward_terms),
+        );
         crate::task::observation::assert_documented_layout(&task, include_str!("reach.rs"), 31);
     }
 }

@@ -1,8 +1,9 @@
 //! The one list of tasks. Adding a task is a file in `task/` whose type implements [`Task`]
 //! and [`TaskSpec`] (its descriptor, its own configuration section with defaults and
 //! validation, how it is built) and one line in the `tasks!` invocation below; the
-//! [`TaskKind`] enum, the tagged [`TaskConfig`] section of [`EnvConfig`], [`make_task`], the
-//! Python ids and their episode lengths, the docs tables and the contract tests all come from
+//! [`TaskKind`] enum, the tagged [`TaskConfig`] section of the environment's configuration
+//! ([`EnvConfig`](crate::env::EnvConfig)), building a task, the legacy keys and terms the
+//! configuration reader migrates, the Python ids and their episode lengths, the docs tables and the contract tests all come from
 //! here.
 
 use std::fmt;
@@ -10,7 +11,7 @@ use std::fmt;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use super::config::EnvConfig;
+use super::context::TaskContext;
 use super::observation::InfoField;
 use super::reward::RewardTerm;
 use super::Task;
@@ -28,7 +29,7 @@ pub struct TaskDescriptor {
     /// Steps of a registered id's episode (Gymnasium's `TimeLimit`): long enough for the
     /// scripted expert in both action modes.
     pub episode_steps: u32,
-    /// Whether its scene has the platform (what [`Task::scene`] builds; a contract test holds
+    /// Whether its scene has the platform (what [`Task::build_scene`] builds; a contract test holds
     /// the two together). `ee` targets keep clear of the platform's top only where it exists.
     pub has_platform: bool,
     /// One line for tables and `--help`.
@@ -73,14 +74,20 @@ pub trait TaskSpec: Task + Sized + 'static {
     /// `(old key, field of the section)`: read with a deprecation warning until 0.3.
     const LEGACY_KEYS: &'static [(&'static str, &'static str)] = &[];
 
+    /// Terms the task's reward gained after 0.2 under a name every task took before 0.2: a
+    /// configuration dumped before 0.2 (it holds all six of the staged reward's weights)
+    /// carries them with a weight that did nothing then, so the reader drops them (with a
+    /// note) and the term's default applies.
+    const TERMS_ADDED_AFTER_0_2: &'static [&'static str] = &[];
+
     /// The joint action scale (`joint_step`, rad per step at action 1.0) of the task's
     /// `joints` ids where it differs from the default: a task whose expert needs the hand
     /// faster than 0.05 rad per step moves it.
     const ID_JOINT_STEP: Option<f64> = None;
 
-    /// Checks `section` against the whole configuration; errors name the field as
-    /// `task.<field>`. (The section's cube and platform are checked before this is called.)
-    fn validate(section: &Self::Config, config: &EnvConfig) -> Result<()>;
+    /// Checks `section` (with the options of `context` it depends on); errors name the field
+    /// as `task.<field>`. (The section's cube and platform are checked before this is called.)
+    fn validate(section: &Self::Config, context: &TaskContext) -> Result<()>;
 
     /// The section's cube (its `cube` field), for tasks that move one: the size, mass and
     /// friction every cube of the task starts from (`randomization` may draw them instead).
@@ -93,8 +100,8 @@ pub trait TaskSpec: Task + Sized + 'static {
         None
     }
 
-    /// The task as `section` and `config` set it up.
-    fn build(section: &Self::Config, config: &EnvConfig) -> Self;
+    /// The task as `section` and `context` set it up.
+    fn build(section: &Self::Config, context: &TaskContext) -> Self;
 }
 
 macro_rules! tasks {
@@ -129,14 +136,24 @@ macro_rules! tasks {
                 }
             }
 
-            pub(crate) fn legacy_keys(self) -> &'static [(&'static str, &'static str)] {
+            /// Top-level keys from before 0.2 that now live in the task's section
+            /// ([`TaskSpec::LEGACY_KEYS`]).
+            pub fn legacy_keys(self) -> &'static [(&'static str, &'static str)] {
                 match self {
                     $(TaskKind::$variant => <$task as TaskSpec>::LEGACY_KEYS),*
                 }
             }
+
+            /// Reward terms the task gained after 0.2 ([`TaskSpec::TERMS_ADDED_AFTER_0_2`]).
+            pub fn terms_added_after_0_2(self) -> &'static [&'static str] {
+                match self {
+                    $(TaskKind::$variant => <$task as TaskSpec>::TERMS_ADDED_AFTER_0_2),*
+                }
+            }
         }
 
-        /// The task section of [`EnvConfig`]: which task, with its own configuration. In
+        /// The task section of the environment's configuration
+        /// ([`EnvConfig`](crate::env::EnvConfig)): which task, with its own configuration. In
         /// JSON, `{"name": "reach", "goal_region": ...}` (fields left out take their
         /// defaults), or just the name, `"reach"`, for the defaults.
         #[derive(Debug, Clone, PartialEq)]
@@ -176,9 +193,9 @@ macro_rules! tasks {
                 }
             }
 
-            /// Checks the section (its cube and platform first) against the whole
-            /// configuration.
-            pub fn validate(&self, config: &EnvConfig) -> Result<()> {
+            /// Checks the section (its cube and platform first), with the options of
+            /// `context` it depends on.
+            pub fn validate(&self, context: &TaskContext) -> Result<()> {
                 if let Some(cube) = self.cube() {
                     cube.validate("task.cube")?;
                 }
@@ -186,14 +203,14 @@ macro_rules! tasks {
                     platform.validate("task.platform")?;
                 }
                 match self {
-                    $(TaskConfig::$variant(section) => <$task as TaskSpec>::validate(section, config)),*
+                    $(TaskConfig::$variant(section) => <$task as TaskSpec>::validate(section, context)),*
                 }
             }
 
-            /// Builds the task.
-            pub fn build(&self, config: &EnvConfig) -> Box<dyn Task> {
+            /// Builds the task from the section and `context`.
+            pub fn build(&self, context: &TaskContext) -> Box<dyn Task> {
                 match self {
-                    $(TaskConfig::$variant(section) => Box::new(<$task as TaskSpec>::build(section, config))),*
+                    $(TaskConfig::$variant(section) => Box::new(<$task as TaskSpec>::build(section, context))),*
                 }
             }
 
@@ -214,13 +231,13 @@ macro_rules! tasks {
 
 // The registry: one line per task.
 tasks! {
-    PickAndPlace => crate::task::PickAndPlace,
-    Reach => crate::task::Reach,
-    Lift => crate::task::Lift,
-    Stack => crate::task::Stack,
-    Push => crate::task::Push,
-    Slide => crate::task::slide::Slide,
-    Flip => crate::task::flip::Flip,
+    PickAndPlace => super::pick_and_place::PickAndPlace,
+    Reach => super::reach::Reach,
+    Lift => super::lift::Lift,
+    Stack => super::stack::Stack,
+    Push => super::push::Push,
+    Slide => super::slide::Slide,
+    Flip => super::flip::Flip,
 }
 
 impl TaskKind {
@@ -266,11 +283,6 @@ impl<'de> Deserialize<'de> for TaskKind {
             ))
         })
     }
-}
-
-/// Builds the task `config` names.
-pub fn make_task(config: &EnvConfig) -> Box<dyn Task> {
-    config.task.build(config)
 }
 
 impl Default for TaskConfig {
@@ -333,84 +345,5 @@ impl<'de> Deserialize<'de> for TaskConfig {
         })?;
         TaskConfig::from_fields(kind, fields)
             .map_err(|e| D::Error::custom(format!("task {name:?}: {e}")))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::error::Error;
-    use crate::task::migrate::TERMS_ADDED_AFTER_0_2;
-
-    #[test]
-    fn the_task_section_takes_a_name_or_fields() {
-        let short = EnvConfig::from_json(r#"{"task": "reach"}"#).unwrap();
-        assert_eq!(short.task.kind(), TaskKind::Reach);
-        let long = EnvConfig::from_json(
-            r#"{"task": {"name": "reach", "goal_region": [[0.4, -0.1, 0.1], [0.6, 0.1, 0.3]]}}"#,
-        )
-        .unwrap();
-        assert_ne!(long.task, short.task);
-        let text = serde_json::to_string(&long).unwrap();
-        assert_eq!(EnvConfig::from_json(&text).unwrap(), long);
-        for bad in [
-            r#"{"task": "juggle"}"#,
-            r#"{"task": {"goal_region": [[0, 0, 0], [1, 1, 1]]}}"#,
-            r#"{"task": {"name": "reach", "goal_height": [0.1, 0.2]}}"#,
-            r#"{"task": 3}"#,
-        ] {
-            let err = EnvConfig::from_json(bad).unwrap_err();
-            assert!(matches!(err, Error::InvalidConfig { .. }), "{bad}: {err}");
-        }
-        let err = EnvConfig::from_json(r#"{"task": {"name": "reach", "goal_height": 1}}"#)
-            .unwrap_err()
-            .to_string();
-        assert!(err.contains("goal_height"), "{err}");
-    }
-
-    #[test]
-    fn reward_weights_name_the_task_s_terms() {
-        let reach =
-            EnvConfig::from_json(r#"{"task": "reach", "reward_weights": {"reach": 2}}"#).unwrap();
-        assert_eq!(reach.reward_weights_resolved()["reach"], 2.0);
-        assert_eq!(reach.resolved().reward_weights.len(), 1);
-        let err = EnvConfig::from_json(r#"{"task": "reach", "reward_weights": {"place": 7}}"#)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            err.contains("reward_weights.place") && err.contains("reach"),
-            "{err}"
-        );
-        let err = EnvConfig::from_json(r#"{"reward_weights": {"carry": -1}}"#).unwrap_err();
-        assert!(err.to_string().contains("reward_weights.carry"), "{err}");
-        // Pick-and-place's full default set, as 0.1 dumped it, for every task: the terms a task
-        // lacks are dropped with a note.
-        let full = r#"{"reach": 1.0, "grasp": 1.0, "lift": 1.0, "carry": 2.0, "place": 5.0,
-            "release": 0.0}"#;
-        for &task in TaskKind::ALL {
-            let text = format!(r#"{{"task": "{task}", "reward_weights": {full}}}"#);
-            let (config, notes) = EnvConfig::from_json_with_notes(&text).unwrap();
-            let shared = task
-                .descriptor()
-                .reward_terms
-                .iter()
-                .filter(|t| full.contains(&format!("\"{}\"", t.name)))
-                .filter(|t| !TERMS_ADDED_AFTER_0_2.contains(&(task, t.name)))
-                .count();
-            assert_eq!(notes.len(), 6 - shared, "{task}");
-            assert_eq!(
-                config.resolved(),
-                EnvConfig {
-                    task: task.into(),
-                    ..EnvConfig::default()
-                }
-                .resolved(),
-                "{task}"
-            );
-        }
-        // The resolved configuration reads back as the same environment.
-        let config = EnvConfig::for_task(TaskKind::Stack).resolved();
-        let text = serde_json::to_string(&config).unwrap();
-        assert_eq!(EnvConfig::from_json(&text).unwrap(), config);
     }
 }

@@ -61,21 +61,6 @@ pub struct RewardTerm {
     pub description: &'static str,
 }
 
-/// The weight of every term of `terms`: its default, or what `overrides` (the configuration's
-/// `reward_weights`, already validated against `terms`) sets.
-pub fn resolve_weights(
-    terms: &[RewardTerm],
-    overrides: &BTreeMap<String, f64>,
-) -> BTreeMap<&'static str, f64> {
-    terms
-        .iter()
-        .map(|t| {
-            let weight = overrides.get(t.name).copied().unwrap_or(t.default_weight);
-            (t.name, weight)
-        })
-        .collect()
-}
-
 /// The staged cube reward's terms ([`RewardFunction`], the module table), each with its
 /// default weight. A cube task lists the ones it pays in its descriptor.
 pub mod cube_terms {
@@ -128,8 +113,11 @@ pub mod cube_terms {
     };
 }
 
-/// The weights of the staged cube reward's terms; a term the task does not pay weighs 0.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The weight of every reward term a task can declare, resolved once per environment
+/// ([`RewardWeights::resolve`]): each of the task's terms at its default or at what the
+/// configuration's `reward_weights` sets; a term the task does not pay weighs 0. Every task
+/// reads its weights from here (the staged cube reward's six, Flip's `orient`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RewardWeights {
     /// Weight of the `reach` term.
     pub reach: f64,
@@ -143,21 +131,47 @@ pub struct RewardWeights {
     pub place: f64,
     /// Weight of the `release` term (0: off).
     pub release: f64,
+    /// Weight of Flip's `orient` term.
+    pub orient: f64,
 }
 
 impl RewardWeights {
-    /// The weights of a task paying `terms`, with the configuration's `overrides`.
+    /// The weights of a task paying `terms`, with the configuration's `overrides` (already
+    /// validated against `terms`).
     pub fn resolve(terms: &[RewardTerm], overrides: &BTreeMap<String, f64>) -> Self {
-        let w = resolve_weights(terms, overrides);
-        let get = |name: &str| w.get(name).copied().unwrap_or(0.0);
-        Self {
-            reach: get("reach"),
-            grasp: get("grasp"),
-            lift: get("lift"),
-            carry: get("carry"),
-            place: get("place"),
-            release: get("release"),
+        let mut weights = Self::default();
+        for t in terms {
+            let weight = overrides.get(t.name).copied().unwrap_or(t.default_weight);
+            match weights.slot_mut(t.name) {
+                Some(slot) => *slot = weight,
+                None => debug_assert!(false, "no weight for the reward term {:?}", t.name),
+            }
         }
+        weights
+    }
+
+    /// The weight of the term called `name` (0 for a name no task declares).
+    pub fn get(&self, name: &str) -> f64 {
+        let mut copy = *self;
+        copy.slot_mut(name).map_or(0.0, |w| *w)
+    }
+
+    /// The weight of each of `terms` by name (what a resolved configuration spells out).
+    pub fn named(&self, terms: &[RewardTerm]) -> BTreeMap<&'static str, f64> {
+        terms.iter().map(|t| (t.name, self.get(t.name))).collect()
+    }
+
+    fn slot_mut(&mut self, name: &str) -> Option<&mut f64> {
+        Some(match name {
+            "reach" => &mut self.reach,
+            "grasp" => &mut self.grasp,
+            "lift" => &mut self.lift,
+            "carry" => &mut self.carry,
+            "place" => &mut self.place,
+            "release" => &mut self.release,
+            "orient" => &mut self.orient,
+            _ => return None,
+        })
     }
 }
 

@@ -46,17 +46,17 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::config::{Range, Region};
+use super::base::cube::{judged_as_cube_task, CubeTask, IS_GRASPED, IS_LIFTED};
+use super::base::term_field;
+use super::config::{validate_cube_start, Range, Region};
+use super::context::TaskContext;
 use super::episode::{cube_orientation, CubeProperties, CUBE_YAW_RANGE};
 use super::registry::{TaskDescriptor, TaskSpec};
-use super::{EnvConfig, EpisodeStart, ResetOptions, Task};
-use crate::config::{invalid, CubeConfig};
+use super::{EpisodeStart, ResetOptions, Task};
+use crate::config::{invalid, CubeConfig, PlatformConfig};
 use crate::error::Result;
 use crate::physics::{ObjectSpec, Scene};
 use crate::task::observation::InfoField;
-use crate::task::pick_and_place::{
-    term_field, PickAndPlace, PickAndPlaceConfig, IS_GRASPED, IS_LIFTED,
-};
 use crate::task::reward::cube_terms::{CARRY, REACH};
 
 /// The task's own info entries.
@@ -119,8 +119,8 @@ impl TaskSpec for Slide {
     // (the expert's `joints` slides fell 0.28 m short on average; at 0.1 rad, 93 % succeed).
     const ID_JOINT_STEP: Option<f64> = Some(0.1);
 
-    fn validate(section: &SlideConfig, _config: &EnvConfig) -> Result<()> {
-        EnvConfig::validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
+    fn validate(section: &SlideConfig, _context: &TaskContext) -> Result<()> {
+        validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
         section.goal_region.validate("task.goal_region")?;
         let f = section.floor_friction;
         if !(f.is_finite() && f > 0.0 && f <= 1.0) {
@@ -145,15 +145,17 @@ impl TaskSpec for Slide {
         Some(&section.cube)
     }
 
-    fn build(section: &SlideConfig, config: &EnvConfig) -> Self {
-        let as_pick_and_place = PickAndPlaceConfig {
-            cube: section.cube.clone(),
-            ..PickAndPlaceConfig::default()
-        };
+    fn build(section: &SlideConfig, context: &TaskContext) -> Self {
         Self {
             section: section.clone(),
-            config: config.clone(),
-            cube_task: PickAndPlace::cube_task(&as_pick_and_place, config, &Self::DESCRIPTOR),
+            context: context.clone(),
+            // The cube task's observation, predicates and reward with this task's terms (its
+            // `lift` term keeps pick-and-place's default platform height as its scale).
+            cube_task: CubeTask::new(
+                &Self::DESCRIPTOR,
+                context,
+                PlatformConfig::default().top_center[2],
+            ),
         }
     }
 }
@@ -162,9 +164,9 @@ impl TaskSpec for Slide {
 #[derive(Debug, Clone)]
 pub struct Slide {
     section: SlideConfig,
-    config: EnvConfig,
-    /// Observation, predicates and the reward function are pick-and-place's.
-    cube_task: PickAndPlace,
+    context: TaskContext,
+    /// The cube, its observation, predicates and reward.
+    cube_task: CubeTask,
 }
 
 impl Task for Slide {
@@ -172,7 +174,7 @@ impl Task for Slide {
         &Self::DESCRIPTOR
     }
 
-    fn scene(&self, _config: &EnvConfig) -> Scene {
+    fn build_scene(&self) -> Scene {
         Scene {
             objects: vec![ObjectSpec::cube(
                 "cube",
@@ -192,7 +194,6 @@ impl Task for Slide {
     }
 
     fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart) {
-        let config = &self.config;
         let mut draw = || rng.random::<f64>();
         // Always the same draws in the same order, whatever the overrides.
         let cube_xy = self.section.cube_region.lerp([draw(), draw()]);
@@ -203,7 +204,7 @@ impl Task for Slide {
         let friction_u = draw();
         let properties = CubeProperties::draw(
             &self.section.cube,
-            &config.randomization,
+            &self.context.randomization,
             [size_u, mass_u, friction_u],
         );
         let cube = properties.resting(
@@ -220,7 +221,7 @@ impl Task for Slide {
     }
 
     // Observation, judgement and reward: pick-and-place's.
-    crate::task::pick_and_place::judged_as_pick_and_place!();
+    judged_as_cube_task!();
 }
 
 #[cfg(test)]
@@ -229,7 +230,10 @@ mod tests {
 
     #[test]
     fn panda_layout_matches_the_documented_table() {
-        let task = Slide::build(&Default::default(), &EnvConfig::default());
+        let task = Slide::build(
+            &Default::default(),
+            &TaskContext::defaults(Slide::DESCRIPTOR.reward_terms),
+        );
         crate::task::observation::assert_documented_layout(&task, include_str!("slide.rs"), 47);
     }
 }

@@ -59,19 +59,22 @@ use super::episode::{
     cube_orientation, CubeProperties, CUBE_REGION, CUBE_YAW_RANGE, PLATFORM_GOAL_REGION,
 };
 use super::registry::{TaskDescriptor, TaskSpec};
-use super::{EnvConfig, EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
+use super::{EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::config::{CubeConfig, PlatformConfig};
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, ObjectSpec, ObjectTouch, Scene, Simulation};
-use crate::task::config::RewardType;
-use crate::task::observation::{info_field, InfoField, InfoType};
-use crate::task::pick_and_place::{
-    cube_task_info, lift_fraction, norm, term_field, write_cube_slots, IS_GRASPED, IS_LIFTED,
+use crate::task::base::cube::{
+    cube_task_info, lift_fraction, write_cube_slots, IS_GRASPED, IS_LIFTED,
 };
+use crate::task::base::{norm, term_field};
+use crate::task::config::RewardType;
+use crate::task::config::{validate_cube_start, validate_platform_regions};
+use crate::task::context::TaskContext;
+use crate::task::observation::{info_field, InfoField, InfoType};
 use crate::task::reward::cube_terms::{self, CARRY, GRASP, PLACE, REACH};
 use crate::task::reward::{
     closeness, compute_batch_with, GoalVerdict, RewardContext, RewardFunction, RewardTerm,
-    RewardTerms, RewardWeights,
+    RewardTerms,
 };
 
 /// The task's own info entries.
@@ -223,10 +226,14 @@ impl TaskSpec for Stack {
         ("goal_region", "goal_region"),
     ];
 
-    fn validate(section: &StackConfig, config: &EnvConfig) -> Result<()> {
-        EnvConfig::validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
+    // Stack's reward took no `lift` term before 0.2 (it is off by default now).
+    const TERMS_ADDED_AFTER_0_2: &'static [&'static str] = &["lift"];
+
+    fn validate(section: &StackConfig, context: &TaskContext) -> Result<()> {
+        validate_cube_start(&section.cube_region, section.cube_yaw_range)?;
         section.goal_region.validate("task.goal_region")?;
-        config.validate_platform_regions(
+        validate_platform_regions(
+            &context.randomization,
             &section.platform,
             &section.cube,
             &section.cube_region,
@@ -242,11 +249,10 @@ impl TaskSpec for Stack {
         Some(&section.platform)
     }
 
-    fn build(section: &StackConfig, config: &EnvConfig) -> Self {
+    fn build(section: &StackConfig, context: &TaskContext) -> Self {
         Self {
             section: section.clone(),
-            config: config.clone(),
-            weights: RewardWeights::resolve(Self::DESCRIPTOR.reward_terms, &config.reward_weights),
+            context: context.clone(),
             cubes: None,
         }
     }
@@ -256,8 +262,7 @@ impl TaskSpec for Stack {
 #[derive(Debug, Clone)]
 pub struct Stack {
     section: StackConfig,
-    config: EnvConfig,
-    weights: RewardWeights,
+    context: TaskContext,
     cubes: Option<[ObjectId; 2]>,
 }
 
@@ -274,12 +279,12 @@ impl Stack {
             RewardFunction::distance(&achieved[..3], &desired[..3]),
             RewardFunction::distance(&achieved[3..], &desired[3..]),
         ];
-        let threshold = self.config.success_threshold;
+        let threshold = self.context.success_threshold;
         let is_success = d[0] < threshold && d[1] < threshold;
         let is_placed =
             is_success && context.cube_released && context.cube_at_rest && context.cube_on_platform;
-        let w = &self.weights;
-        let (reward, terms) = match self.config.reward_type {
+        let w = &self.context.reward_weights;
+        let (reward, terms) = match self.context.reward_type {
             RewardType::Sparse => (if is_success { 0.0 } else { -1.0 }, RewardTerms::default()),
             RewardType::Dense => {
                 let terms = RewardTerms {
@@ -308,7 +313,7 @@ impl Task for Stack {
         &Self::DESCRIPTOR
     }
 
-    fn scene(&self, _config: &EnvConfig) -> Scene {
+    fn build_scene(&self) -> Scene {
         let cube = &self.section.cube;
         let [x, y, z] = Scene::TUTORIAL_CUBE_POSITION;
         Scene {
@@ -342,7 +347,6 @@ impl Task for Stack {
     }
 
     fn draw_episode(&self, rng: &mut ChaCha8Rng, options: &ResetOptions, start: &mut EpisodeStart) {
-        let config = &self.config;
         let mut draw = || rng.random::<f64>();
         // Always the same draws in the same order, whatever the overrides.
         let swap_u = draw();
@@ -355,7 +359,7 @@ impl Task for Stack {
         let friction_u = draw();
         let properties = CubeProperties::draw(
             &self.section.cube,
-            &config.randomization,
+            &self.context.randomization,
             [size_u, mass_u, friction_u],
         );
         let size = properties.size;
@@ -414,7 +418,7 @@ impl Task for Stack {
     }
 
     fn evaluate(&self, view: &View<'_>) -> Verdict {
-        let t = &self.config.thresholds;
+        let t = &self.context.thresholds;
         let [c1, c2] = self.cubes();
         let touch = [view.sim.object_touch(c1), view.sim.object_touch(c2)];
         let l = view.layout;
@@ -432,8 +436,8 @@ impl Task for Stack {
         // Reach for the first cube that is not at its goal yet.
         let achieved = &obs[l.achieved_goal()];
         let desired = &obs[l.desired_goal()];
-        let first_done =
-            RewardFunction::distance(&achieved[..3], &desired[..3]) < self.config.success_threshold;
+        let first_done = RewardFunction::distance(&achieved[..3], &desired[..3])
+            < self.context.success_threshold;
         let handled = usize::from(first_done);
         let reach_distance = norm(slot(handled, RELATIVE_POSITION));
         let (size, _, _) = view.sim.object_properties([c1, c2][handled]);
@@ -442,7 +446,7 @@ impl Task for Stack {
             size,
             self.section.platform.top_center[2],
         );
-        let w = &self.weights;
+        let w = &self.context.reward_weights;
         let context = RewardContext {
             reach: w.reach as f32 * closeness(reach_distance),
             grasp: if is_grasped { w.grasp as f32 } else { 0.0 },
@@ -468,7 +472,7 @@ impl Task for Stack {
         contexts: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
-        let needs_context = self.config.reward_type == RewardType::Dense;
+        let needs_context = self.context.reward_type == RewardType::Dense;
         compute_batch_with(
             achieved,
             desired,
@@ -491,7 +495,10 @@ mod tests {
 
     #[test]
     fn panda_layout_matches_the_documented_table() {
-        let task = Stack::build(&Default::default(), &EnvConfig::default());
+        let task = Stack::build(
+            &Default::default(),
+            &TaskContext::defaults(Stack::DESCRIPTOR.reward_terms),
+        );
         crate::task::observation::assert_documented_layout(&task, include_str!("stack.rs"), 69);
     }
 }

@@ -13,8 +13,8 @@ native stable-baselines3 vector environment.
 The baselines: :class:`ScriptedPolicy` (the task's expert) and :class:`RandomPolicy`
 (``panda-rapier eval --policy scripted|random`` on the command line).
 stable-baselines3 users: :func:`panda_rapier.sb3.make_vec_env` (needs the ``sb3`` extra).
-Ray (the ``rllib`` extra): :mod:`panda_rapier.rllib` (RLlib configs with the native vector env
-in every EnvRunner) and :mod:`panda_rapier.tuning` (Ray Tune sweeps of the SB3 recipes).
+Ray (the ``rllib`` extra): :mod:`panda_rapier.scale.rllib` (RLlib configs with the native vector env
+in every EnvRunner) and :mod:`panda_rapier.scale.tuning` (Ray Tune sweeps of the SB3 recipes).
 """
 
 from __future__ import annotations

@@ -125,9 +125,9 @@ def _non_finite(value: Any, path: str) -> str | None:
 
 
 #: Bound of an entry standardised by a policy network's observation normaliser
-#: (:class:`~panda_rapier.normalization.NormalizedFlatten`, the students'
-#: :class:`~panda_rapier.student_model.PixelEncoder`, the native network); defined here, where
-#: no torch is needed, and read by all of them.
+#: (:class:`~panda_rapier.learning.normalization.NormalizedFlatten`, the students'
+#: :class:`~panda_rapier.agents.student_model.PixelEncoder`, the native network); defined here,
+#: where no torch is needed, and read by all of them.
 CLIP = 10.0
 #: Smallest scale a normalised feature is divided by: entries that barely move in the expert's
 #: episodes (the cube's tilt) must not turn float noise into large inputs.
@@ -303,6 +303,7 @@ class NativeBacked:
     _config: dict[str, Any]
     _dense: bool
     _schema: Schema
+    _obs: Any
 
     def _bind_native(self, native: Any) -> None:
         self._native = native
@@ -315,6 +316,13 @@ class NativeBacked:
     def dt(self) -> float:
         """Control period in seconds (one ``step``)."""
         return float(self._native.dt)
+
+    @property
+    def segmentation_ids(self) -> dict[int, str]:
+        """What each segmentation id stands for (``background``, ``floor``, ``platform``,
+        ``goal``, ``object:<name>``, ``link:<name>``): every id the segmentation images can
+        hold; empty when the ``obs_mode`` has no segmentation."""
+        return dict(self._obs.segmentation_ids)
 
     @property
     def config(self) -> dict[str, Any]:

@@ -6,6 +6,9 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "DEFAULT_RENDER_HEIGHT",
+    "DEFAULT_RENDER_WIDTH",
+    "DEPTH_FAR",
     "AssetError",
     "Cameras",
     "ConfigError",
@@ -24,7 +27,9 @@ __all__ = [
     "__version__",
     "default_config_json",
     "evaluate_scripted",
+    "observation_camera_json",
     "schema",
+    "segmentation_ids",
     "summarize",
     "tasks",
     "tutorial_fidelity",
@@ -32,6 +37,12 @@ __all__ = [
 ]
 
 __version__: str
+
+#: ``RenderConfig::default``'s picture size (pixels): ``panda_rapier.rendering``'s defaults.
+DEFAULT_RENDER_WIDTH: int
+DEFAULT_RENDER_HEIGHT: int
+#: Depth images' value where nothing nearer is drawn (m): the renderer's ``DEPTH_FAR``.
+DEPTH_FAR: float
 
 # The exception classes (env-py/src/errors.rs creates them, with their docstrings, when the
 # module initialises); panda_rapier.errors re-exports them and is their __module__.
@@ -44,7 +55,9 @@ class ResetNeededError(PandaRapierError, RuntimeError): ...
 class DisplayError(PandaRapierError, RuntimeError): ...
 
 def default_config_json() -> str: ...
+def observation_camera_json() -> str: ...
 def schema(config_json: str) -> dict[str, Any]: ...
+def segmentation_ids(config_json: str) -> list[tuple[int, str]]: ...
 def tasks() -> list[dict[str, Any]]: ...
 def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]: ...
 def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]: ...
@@ -272,5 +285,9 @@ class Cameras:
     @property
     def keys(self) -> list[str]: ...
     @property
-    def shapes(self) -> list[tuple[int, int, int]]: ...
+    def shapes(self) -> list[list[int]]: ...
+    @property
+    def dtypes(self) -> list[str]: ...
+    @property
+    def bounds(self) -> list[tuple[float, float]]: ...
     def observe(self, env: PandaEnv) -> npt.NDArray[np.uint8]: ...

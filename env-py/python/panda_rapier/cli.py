@@ -3,6 +3,11 @@
 Over 600 lines: one parser per subcommand with its help texts, and each subcommand's thin
 runner; the work itself lives in the modules the runners call.
 
+The only module of the environment layer that uses the wings (:mod:`panda_rapier.agents`,
+:mod:`~panda_rapier.learning`, :mod:`~panda_rapier.scale`, :mod:`~panda_rapier.tools`): it
+imports them inside the functions that need them (the parser takes two torch-free constants,
+each runner its subcommand's modules), so ``panda-rapier --help`` loads no torch and no Ray.
+
 ::
 
     panda-rapier eval --policy scripted --episodes 1000 --num-envs 32 --seed 0
@@ -30,7 +35,6 @@ from typing import Any
 
 from . import __version__
 from .errors import InvalidArgumentError, PandaRapierError
-from .inference import INFERENCE_CHOICES
 from .pixels import RANDOMIZATION_GROUPS, randomization_of
 from .registration import DEFAULT_ENV_ID, ENV_IDS, task_places, variant
 
@@ -69,6 +73,9 @@ def _size(text: str) -> tuple[int, int]:
 
 
 def _parser() -> argparse.ArgumentParser:
+    # The wings' constants the parser offers as choices; torch-free modules (see above).
+    from .agents.inference import INFERENCE_CHOICES
+
     parser = argparse.ArgumentParser(
         prog="panda-rapier",
         description="panda_rapier: Franka Panda manipulation tasks on rapier3d.",
@@ -202,6 +209,14 @@ def _parser() -> argparse.ArgumentParser:
         help="also measure gym.make and vector with image observations of these sizes "
         "(obs_mode=state+rgb, one camera; e.g. 64 84 128)",
     )
+    bench.add_argument(
+        "--image-modes",
+        nargs="+",
+        default=["rgb"],
+        metavar="MODE",
+        help="what the --image-sizes cases observe, each after state+ (default rgb; e.g. rgb "
+        "depth segmentation points rgbd)",
+    )
     bench.add_argument("--no-peers", action="store_true", help="skip the peer environments")
     bench.add_argument("--json", type=Path, default=None, help="write the report here")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -228,8 +243,8 @@ def _parser() -> argparse.ArgumentParser:
         help="a variant: a name, then recipe overrides, update_threads (torch's threads "
         "during updates), overlap=true (ppo: updates in a second process while the next rollout "
         "is collected) and backend=sb3-stock (ppo: stable-baselines3's PPO class itself "
-        "instead of panda_rapier.ppo.PPO) or backend=rllib (ppo: the same recipe trained by "
-        "RLlib); repeat for each (default: one, the recipe as it is)",
+        "instead of panda_rapier.learning.ppo.PPO) or backend=rllib (ppo: the same recipe "
+        "trained by RLlib); repeat for each (default: one, the recipe as it is)",
     )
     bench_train.add_argument(
         "--steps", type=_positive, default=81_920, help="env steps per run (default 81,920)"
@@ -239,7 +254,7 @@ def _parser() -> argparse.ArgumentParser:
     bench_train.add_argument("--quiet", action="store_true", help="no progress bar")
     bench_train.set_defaults(run=_run_bench_train)
 
-    from .training import ALGORITHMS, FINAL_CHOICES
+    from .learning.recipes import ALGORITHMS, FINAL_CHOICES
 
     train = commands.add_parser(
         "train",
@@ -437,7 +452,7 @@ def _parser() -> argparse.ArgumentParser:
 def _run_demos(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from .demos import DEFAULT_FIRST_SEED, record
+    from .learning.demos import DEFAULT_FIRST_SEED, record
 
     with tqdm(desc="demos", unit="episode", disable=args.quiet, file=sys.stderr) as bar:
 
@@ -500,7 +515,7 @@ def _run_train_rllib(args: argparse.Namespace) -> dict[str, Any]:
         names = [f"--{k.replace('_', '-')}" for k in given]
         names += ["--torch-threads"] if args.torch_threads != 1 else []
         raise InvalidArgumentError(f"--backend rllib does not take {', '.join(names)}")
-    from .rllib_training import train
+    from .scale.rllib_training import train
 
     return train(
         args.env_id,
@@ -532,7 +547,7 @@ def _train_options(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _run_train(args: argparse.Namespace) -> int:
-    from .training import train
+    from .learning.runner import train
 
     if args.backend == "rllib":
         run = _run_train_rllib(args)
@@ -583,7 +598,7 @@ def _report_run(args: argparse.Namespace, run: Mapping[str, Any]) -> int:
 
 
 def _run_curves(args: argparse.Namespace) -> int:
-    from .reporting import plot_curves
+    from .tools.reporting import plot_curves
 
     plot_curves(args.runs, args.out, reference=args.reference)
     print(f"curves written to {args.out}")
@@ -591,7 +606,7 @@ def _run_curves(args: argparse.Namespace) -> int:
 
 
 def _run_models_table(args: argparse.Namespace) -> int:
-    from .reporting import models_table
+    from .tools.reporting import models_table
 
     out = args.out or args.folder / "README.md"
     evaluations = out.parent / "evaluations.json"
@@ -638,7 +653,7 @@ def _write_report(path: Path | None, text: str) -> None:
 
 
 def _run_bench(args: argparse.Namespace) -> int:
-    from .bench import format_report, run_benchmark, to_json
+    from .tools.bench import format_report, run_benchmark, to_json
 
     with _run_bar("bench", args.quiet) as progress:
         report = run_benchmark(
@@ -652,6 +667,7 @@ def _run_bench(args: argparse.Namespace) -> int:
             peers=not args.no_peers,
             progress=progress,
             image_sizes=args.image_sizes,
+            image_modes=args.image_modes,
             arm=args.arm,
         )
     print(format_report(report))
@@ -660,7 +676,7 @@ def _run_bench(args: argparse.Namespace) -> int:
 
 
 def _run_bench_train(args: argparse.Namespace) -> int:
-    from .train_bench import benchmark_training, format_training_report, parse_variant
+    from .tools.train_bench import benchmark_training, format_training_report, parse_variant
 
     variants = [parse_variant(tokens) for tokens in (args.variant or [["recipe"]])]
     with _run_bar("bench-train", args.quiet) as progress:
@@ -676,8 +692,8 @@ def _run_bench_train(args: argparse.Namespace) -> int:
 def _run_eval(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from .evaluation import evaluate
-    from .inference import resolve_policy
+    from .agents.evaluation import evaluate
+    from .agents.inference import resolve_policy
 
     overrides: dict[str, Any] = {}
     if args.control is not None:

@@ -83,13 +83,26 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     :data:`panda_rapier.pixels.VISUAL_RANDOMIZATION`) jitters the cameras, light and colours
     per episode and adds pixel noise per frame, seeded by the episode. SB3's
     ``MultiInputPolicy`` takes them as they are (it transposes images for its CNN).
+    Depth (float32 metres along the optical axis, ``<key>_depth``), segmentation ids
+    (``<key>_segmentation``; :attr:`segmentation_ids` names them) and point clouds
+    (``<key>_points``) come with modes such as ``"depth"``, ``"rgbd"``, ``"proprio+rgbd"`` or
+    ``"state+segmentation+points"`` (:data:`panda_rapier.pixels.MODALITIES`; the guide's
+    *Depth, segmentation and point clouds*).
 
     ## Action Space
     ``Box(-1, 1, (4,), float32)`` with ``control_mode="ee"`` (default): TCP displacement x, y, z
     times ``ee_step`` (0.05 m) through inverse kinematics, hand pointing down, and the gripper
     (-1 squeezes, +1 opens fully). ``Box(-1, 1, (8,), float32)`` with ``control_mode="joints"``:
-    the 7 arm joints' displacements times ``joint_step`` (0.05 rad) and the gripper. Targets are
-    limited by the joints' velocity limits; actions outside [-1, 1] are clipped.
+    the 7 arm joints' displacements times ``joint_step`` (0.05 rad) and the gripper.
+    ``Box(-1, 1, (7,), float32)`` with ``control_mode="ee_pose"``: TCP displacement x, y, z times
+    ``ee_step``, a rotation vector times ``ee_rot_step`` (0.1 rad), and the gripper, in the
+    robot base's frame (``ee_frame="base"``, default) or the hand's (``ee_frame="hand"``),
+    applied to the measured TCP pose through inverse kinematics. Targets are limited by the
+    joints' velocity limits; actions outside [-1, 1] are clipped. ``ee_controller="osc"``
+    drives ``ee`` and ``ee_pose`` actions by an operational-space controller (joint torques
+    from the TCP's pose error through the arm's dynamics; gains in ``osc``, e.g.
+    ``osc={"position_stiffness": 150.0, "orientation_stiffness": 150.0, "damping_ratio": 1.0,
+    "null_space_stiffness": 10.0}``) instead of inverse kinematics (``"ik"``, the default).
 
     ## Observation Space
     ``Dict(achieved_goal: (3,), desired_goal: (3,), observation: (41,))``, float32: the cube's
@@ -182,7 +195,12 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
         config.setdefault("max_episode_steps", None)
         self._bind_native(_native.PandaEnv(_common.config_json(config), 0))
         self._obs = observation_spec(
-            self._schema, obs_mode, image_size, cameras, visual_randomization
+            self._schema,
+            obs_mode,
+            image_size,
+            cameras,
+            visual_randomization,
+            config_json=self._native.config_json(),
         )
         self._cameras = _native.Cameras(self._obs.cameras_json) if self._obs.has_images else None
         # gymnasium types a Dict space's elements as dict[str, Space], not the observations.

@@ -1,9 +1,15 @@
-"""Image observations (``obs_mode="rgb"``, ``"state+rgb"``, ``"proprio+rgb"``): camera
-images from the CPU renderer in the observation dict, for the single, vector and
-stable-baselines3 environments.
+"""Image observations (``obs_mode="rgb"``, ``"state+rgb"``, ``"proprio+rgb"``, and depth,
+segmentation and point clouds: ``"depth"``, ``"rgbd"``, ``"proprio+rgb+segmentation"``,
+...): what the cameras of the CPU renderer see, in the observation dict, for the single,
+vector and stable-baselines3 environments.
 
 Every environment class reads its observation layout from one :class:`ObservationSpec`: the
-state keys the task's schema gives, plus one uint8 ``(height, width, 3)`` image per camera.
+state keys the task's schema gives, plus each camera's entries: a uint8 ``(height, width, 3)``
+colour image under the camera's key, a float32 ``(height, width, 1)`` depth image under
+``<key>_depth``, a uint8 ``(height, width, 1)`` segmentation image under
+``<key>_segmentation``, a point cloud under ``<key>_points`` (with ``_points_mask``, and
+``_points_rgb`` / ``_points_segmentation`` when the mode has colour / segmentation), as the
+mode asks (:data:`MODALITIES`).
 ``"proprio+rgb"`` is what a policy without privileged state sees: the images, the robot's own
 state (``proprioception``: the slots the native schema marks ``robot``) and the commanded goal
 (``desired_goal``); nothing of the simulator's object state, not even ``achieved_goal``.
@@ -29,7 +35,57 @@ from .errors import ConfigError
 #: ``desired_goal``, ``observation``, as ``gymnasium.wrappers.FlattenObservation`` lays out
 #: the ``"state"`` dict), for learners that take a plain ``Box`` (RLlib's default encoders),
 #: without a flattening step per observation.
-OBS_MODES = ("state", "rgb", "state+rgb", "proprio+rgb", "flat")
+#:
+#: Beyond colour (:data:`MODALITIES`), an image mode is ``[state+|proprio+]`` followed by one or
+#: more of ``rgb``, ``depth``, ``segmentation``, ``points``, in that order, joined by ``+``
+#: (``rgbd`` stands for ``rgb+depth``): ``"depth"``, ``"rgbd"``, ``"state+depth"``,
+#: ``"proprio+rgbd"``, ``"rgb+segmentation+points"``, ... Without a prefix the dict holds the
+#: two goals, as ``"rgb"`` does.
+MODALITIES = ("rgb", "depth", "segmentation", "points")
+
+#: The prefixes of the image modes: the goals alone, the whole state, or the robot's own state
+#: with the commanded goal.
+_PREFIXES = ("", "state+", "proprio+")
+
+
+def _modality_sets() -> list[tuple[str, ...]]:
+    """Every non-empty subset of :data:`MODALITIES`, in their order."""
+    return [
+        tuple(m for bit, m in enumerate(MODALITIES) if mask >> bit & 1)
+        for mask in range(1, 1 << len(MODALITIES))
+    ]
+
+
+def _mode_name(modalities: tuple[str, ...]) -> str:
+    """The mode string of ``modalities``, with ``rgbd`` for colour and depth."""
+    name = "+".join(modalities)
+    return "rgbd" + name[len("rgb+depth") :] if name.startswith("rgb+depth") else name
+
+
+#: Every image mode (see :data:`MODALITIES`) by its prefix and modalities: the mode string
+#: names a layout once (``rgb+depth`` is spelled ``rgbd``).
+_IMAGE_MODES: dict[str, tuple[str, tuple[str, ...]]] = {
+    prefix + _mode_name(modalities): (prefix.rstrip("+"), modalities)
+    for prefix in _PREFIXES
+    for modalities in _modality_sets()
+}
+
+#: Every ``obs_mode``: the five above first, then the image modes with depth, segmentation or
+#: point clouds.
+OBS_MODES = (
+    "state",
+    "rgb",
+    "state+rgb",
+    "proprio+rgb",
+    "flat",
+    *(mode for mode in _IMAGE_MODES if mode not in ("rgb", "state+rgb", "proprio+rgb")),
+)
+
+#: Depth images' value where nothing nearer is drawn (m): depths lie in ``[0, DEPTH_FAR]``.
+DEPTH_FAR = float(_native.DEPTH_FAR)
+
+#: The default number of points of a point cloud (a camera's ``points`` option).
+DEFAULT_POINTS = 1024
 
 #: The key of the robot's own state in ``"proprio+rgb"`` observations.
 PROPRIOCEPTION_KEY = "proprioception"
@@ -100,13 +156,12 @@ def randomization_of(name: str) -> dict[str, Any] | None:
 DEFAULT_IMAGE_SIZE = 84
 
 #: The default observation camera: in front of the robot, looking down at the pick region and
-#: the platform, with the gripper in the picture up to about 0.4 m above the floor.
+#: the platform, with the gripper in the picture up to about 0.4 m above the floor. Defined once,
+#: in Rust (``CameraConfig::OBSERVATION``); its set options, here.
 DEFAULT_CAMERA: dict[str, Any] = {
-    "target": [0.45, 0.05, 0.22],
-    "distance": 1.35,
-    "azimuth": 25.0,
-    "elevation": 35.0,
-    "fov": 45.0,
+    key: value
+    for key, value in json.loads(_native.observation_camera_json()).items()
+    if value is not None
 }
 
 #: A second camera, from the robot's left side (pass both in ``cameras`` for two views).
@@ -125,23 +180,34 @@ DEFAULT_CAMERAS: dict[str, dict[str, Any]] = {"rgb": DEFAULT_CAMERA}
 @dataclass(frozen=True)
 class ObservationSpec:
     """What an environment's observation dict holds: the state keys (a subset of
-    ``achieved_goal``, ``desired_goal``, ``observation``) and one image per camera."""
+    ``achieved_goal``, ``desired_goal``, ``observation``, or ``desired_goal`` and
+    ``proprioception``) and each camera's entries (images, depth, segmentation, points)."""
 
     mode: str
     schema: _common.Schema
-    #: Image keys, in the order of the native image bytes.
+    #: Camera entry keys, in the order of the native bytes.
     image_keys: tuple[str, ...] = ()
-    #: ``(height, width, 3)`` of each image.
-    image_shapes: tuple[tuple[int, int, int], ...] = ()
+    #: The shape of each entry (``(height, width, 3)`` for a colour image).
+    image_shapes: tuple[tuple[int, ...], ...] = ()
     #: The cameras as the native side takes them (``"[]"`` for none).
     cameras_json: str = "[]"
+    #: The element type of each entry (``"uint8"`` or ``"float32"``; all ``"uint8"`` when
+    #: empty).
+    image_dtypes: tuple[str, ...] = ()
+    #: The ``(low, high)`` bounds of each entry's values.
+    image_bounds: tuple[tuple[float, float], ...] = ()
+    #: ``(id, what)`` of every segmentation id the cameras can see (empty without
+    #: segmentation): ``background``, ``floor``, ``platform``, ``goal``, ``object:<name>``,
+    #: ``link:<name>``.
+    segmentation_ids: tuple[tuple[int, str], ...] = ()
 
     @property
     def state_keys(self) -> tuple[str, ...]:
         """The state entries of the dict."""
-        if self.mode == "rgb":
+        prefix = _IMAGE_MODES[self.mode][0] if self.mode in _IMAGE_MODES else "state"
+        if prefix == "":
             return ("achieved_goal", "desired_goal")
-        if self.mode == "proprio+rgb":
+        if prefix == "proprio":
             return ("desired_goal", PROPRIOCEPTION_KEY)
         return _common.DICT_KEYS
 
@@ -172,9 +238,22 @@ class ObservationSpec:
                 dtype=np.float32,
             )
         entries: dict[str, spaces.Space[Any]] = {key: state[key] for key in self.state_keys}
-        for key, shape in zip(self.image_keys, self.image_shapes, strict=True):
-            entries[key] = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
+        for key, shape, dtype, (low, high) in zip(
+            self.image_keys, self.image_shapes, self._dtypes, self._bounds, strict=True
+        ):
+            if dtype == "uint8":
+                entries[key] = spaces.Box(int(low), int(high), shape=shape, dtype=np.uint8)
+            else:
+                entries[key] = spaces.Box(low, high, shape=shape, dtype=np.float32)
         return spaces.Dict(entries)
+
+    @property
+    def _dtypes(self) -> tuple[str, ...]:
+        return self.image_dtypes or ("uint8",) * len(self.image_keys)
+
+    @property
+    def _bounds(self) -> tuple[tuple[float, float], ...]:
+        return self.image_bounds or ((0.0, 255.0),) * len(self.image_keys)
 
     def assemble(self, flat: np.ndarray, images: np.ndarray | None) -> Any:
         """The observation dict from the flat state (``(d,)`` or ``(n, d)``) and the native
@@ -189,10 +268,20 @@ class ObservationSpec:
         if images is not None:
             lead = images.shape[:-1]
             start = 0
-            for key, shape in zip(self.image_keys, self.image_shapes, strict=True):
-                size = shape[0] * shape[1] * shape[2]
-                obs[key] = images[..., start : start + size].reshape(*lead, *shape)
-                start += size
+            for key, shape, dtype in zip(
+                self.image_keys, self.image_shapes, self._dtypes, strict=True
+            ):
+                count = int(np.prod(shape))
+                if dtype == "uint8":
+                    obs[key] = images[..., start : start + count].reshape(*lead, *shape)
+                    start += count
+                    continue
+                # Little-endian float32 bytes, viewed as numbers (a copy of the bytes, so
+                # that each entry owns an aligned buffer).
+                chunk = np.ascontiguousarray(images[..., start : start + 4 * count])
+                values = chunk.view(np.dtype("<f4")).astype(np.float32, copy=False)
+                obs[key] = values.reshape(*lead, *shape)
+                start += 4 * count
         return obs
 
     def row(self, obs: Any, i: int | np.integer) -> Any:
@@ -229,17 +318,25 @@ def observation_spec(
     image_size: Any = DEFAULT_IMAGE_SIZE,
     cameras: Any = None,
     visual_randomization: Any = None,
+    config_json: str = "{}",
 ) -> ObservationSpec:
     """The observation layout for ``obs_mode`` with images of ``image_size`` from ``cameras``
     (a dict from observation key to camera options: ``target``, ``distance``, ``azimuth``,
     ``elevation`` or ``eye``, ``fov``, as for rendering, and ``show_goal``, default False: the
     goal marker is left out of observation images so that a relabelled goal never contradicts
-    the picture). ``visual_randomization`` (``True`` for :data:`VISUAL_RANDOMIZATION`'s ranges,
-    or a dict of some of them; ``None`` or ``False``: off) randomises every camera's pictures,
-    seeded per episode (see :data:`VISUAL_RANDOMIZATION`). Bad values raise
+    the picture; with point clouds, ``points``, the number of points, default
+    :data:`DEFAULT_POINTS`, and ``points_frame``, ``"world"`` (default) or ``"camera"``).
+    ``visual_randomization`` (``True`` for :data:`VISUAL_RANDOMIZATION`'s ranges, or a dict of
+    some of them; ``None`` or ``False``: off) randomises every camera's pictures, seeded per
+    episode (see :data:`VISUAL_RANDOMIZATION`). ``config_json`` is the environment's
+    configuration, whose scene names the segmentation ids. Bad values raise
     :class:`~panda_rapier.ConfigError`."""
     if obs_mode not in OBS_MODES:
-        raise ConfigError(f"obs_mode must be one of {OBS_MODES}, got {obs_mode!r}")
+        raise ConfigError(
+            "obs_mode must be 'state', 'flat', or [state+|proprio+] followed by one or more of "
+            f"{', '.join(MODALITIES)} in that order, joined by '+' ('rgbd' for 'rgb+depth'): "
+            f"one of {OBS_MODES}; got {obs_mode!r}"
+        )
     if obs_mode in ("state", "flat"):
         if cameras is not None or visual_randomization not in (None, False):
             raise ConfigError(
@@ -256,6 +353,7 @@ def observation_spec(
             f"{cameras!r}"
         )
     randomization = _randomization(visual_randomization)
+    modalities = _IMAGE_MODES[obs_mode][1]
     entries = []
     for key, options in cameras.items():
         if not isinstance(key, str) or key in RESERVED_KEYS or not key:
@@ -271,7 +369,27 @@ def observation_spec(
         render = {"width": width, "height": height, "camera": camera, "show_goal": show_goal}
         if randomization is not None:
             render["randomization"] = randomization
-        entries.append({"key": key, "render": render})
+        entry: dict[str, Any] = {"key": key, "render": render}
+        points = {name: camera.pop(name) for name in ("points", "points_frame") if name in camera}
+        if points and "points" not in modalities:
+            raise ConfigError(
+                f"cameras[{key!r}]: {sorted(points)} are options of the point cloud modes (an "
+                f"obs_mode with 'points'), not of {obs_mode!r}"
+            )
+        count = points.get("points", DEFAULT_POINTS)
+        if isinstance(count, bool) or not isinstance(count, int | np.integer) or count < 1:
+            raise ConfigError(f"cameras[{key!r}]['points'] must be an int >= 1, got {count!r}")
+        frame = points.get("points_frame", "world")
+        if frame not in ("world", "camera"):
+            raise ConfigError(
+                f"cameras[{key!r}]['points_frame'] must be 'world' or 'camera', got {frame!r}"
+            )
+        if modalities != ("rgb",):
+            entry["modalities"] = list(modalities)
+        if "points" in modalities:
+            entry["points"] = int(count)
+            entry["points_frame"] = frame
+        entries.append(entry)
     try:
         cameras_json = json.dumps(
             entries,
@@ -281,12 +399,22 @@ def observation_spec(
     except ValueError as error:
         raise ConfigError(f"camera options must be finite numbers: {error}") from error
     native = _native.Cameras(cameras_json)  # validates every camera
+    clash = set(native.keys) & set(RESERVED_KEYS)
+    if clash:
+        raise ConfigError(f"camera entries {sorted(clash)} clash with the state keys")
     return ObservationSpec(
         mode=str(obs_mode),
         schema=schema,
         image_keys=tuple(native.keys),
-        image_shapes=tuple(tuple(shape) for shape in native.shapes),  # type: ignore[misc]
+        image_shapes=tuple(tuple(shape) for shape in native.shapes),
         cameras_json=cameras_json,
+        image_dtypes=tuple(native.dtypes),
+        image_bounds=tuple((float(lo), float(hi)) for lo, hi in native.bounds),
+        segmentation_ids=(
+            tuple((int(i), str(name)) for i, name in _native.segmentation_ids(config_json))
+            if "segmentation" in modalities
+            else ()
+        ),
     )
 
 

@@ -212,7 +212,7 @@ class RandomPolicy(_BaselinePolicy):
     """Uniformly random actions in ``[-1, 1]``: the floor of every benchmark table.
 
     ``source`` and ``config`` say which environment, as for :class:`ScriptedPolicy`.
-    Reproducible by episode, not by call: in :func:`panda_rapier.evaluation.evaluate`, the
+    Reproducible by episode, not by call: in :func:`panda_rapier.agents.evaluation.evaluate`, the
     episode seeded with ``s`` draws its actions from its own stream (``numpy``'s
     ``default_rng([seed, s])``, one action per step), so the evaluation's contract holds as
     for a deterministic policy: the same ``(config, first_seed, num_envs)`` gives the same

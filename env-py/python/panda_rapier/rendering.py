@@ -19,9 +19,9 @@ from .errors import ConfigError, DisplayError
 #: The render modes every panda_rapier environment accepts.
 RENDER_MODES = ("human", "rgb_array")
 
-#: Default picture size (pixels).
-DEFAULT_WIDTH = 720
-DEFAULT_HEIGHT = 480
+#: Default picture size (pixels): the native renderer's (``RenderConfig::default``).
+DEFAULT_WIDTH: int = _native.DEFAULT_RENDER_WIDTH
+DEFAULT_HEIGHT: int = _native.DEFAULT_RENDER_HEIGHT
 
 _NO_DISPLAY_HINT = (
     "use render_mode='rgb_array' to get frames (for videos) without a display, or run under a "

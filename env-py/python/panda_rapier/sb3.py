@@ -116,7 +116,12 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
             )
         )
         self._obs = observation_spec(
-            self._schema, obs_mode, image_size, cameras, visual_randomization
+            self._schema,
+            obs_mode,
+            image_size,
+            cameras,
+            visual_randomization,
+            config_json=self._native.config_json(),
         )
         if self._obs.has_images:
             self._native.set_cameras(self._obs.cameras_json)
@@ -133,7 +138,7 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
         self._episode_lengths = np.zeros(self.num_envs, dtype=np.int64)
         self._start_time = time.time()
         #: Wall-clock seconds spent in :meth:`step_wait` so far (stepping, observations,
-        #: infos): what :class:`~panda_rapier.phases.PhaseClock` reports as env stepping.
+        #: infos): what :class:`~panda_rapier.learning.phases.PhaseClock` reports as env stepping.
         self.step_seconds = 0.0
         self._frames = FrameSource(render_mode, width, height, camera, float(self._native.dt))
 

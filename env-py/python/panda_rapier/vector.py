@@ -30,7 +30,7 @@ _NATIVE_MODES = {
 }
 
 
-def _autoreset_mode(value: str | AutoresetMode) -> AutoresetMode:
+def as_autoreset_mode(value: str | AutoresetMode) -> AutoresetMode:
     """Gymnasium's enum, from itself, its value (``"NextStep"``) or ``"next_step"``."""
     for mode, name in _NATIVE_MODES.items():
         if value in (mode, mode.value, name):
@@ -94,7 +94,7 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
             raise ConfigError(f"num_threads must be an int >= 1 or None, got {num_threads!r}")
         render_envs = check_render_envs(render_envs, int(num_envs))
         check_render_mode(render_mode)
-        mode = _autoreset_mode(autoreset_mode)
+        mode = as_autoreset_mode(autoreset_mode)
         self._bind_native(
             _native.PandaVecEnv(
                 _common.config_json(config),
@@ -111,7 +111,12 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
             "render_fps": round(1.0 / self._native.dt),
         }
         self._obs = observation_spec(
-            self._schema, obs_mode, image_size, cameras, visual_randomization
+            self._schema,
+            obs_mode,
+            image_size,
+            cameras,
+            visual_randomization,
+            config_json=self._native.config_json(),
         )
         if self._obs.has_images:
             self._native.set_cameras(self._obs.cameras_json)

@@ -56,7 +56,8 @@ class VideoRecorder:
 
     def capture(self, envs: _native.PandaVecEnv | _native.Evaluation, index: int = 0) -> np.ndarray:
         """Appends a frame of environment ``index`` of a native vector env or of the vector
-        env of a native evaluation (what :func:`~panda_rapier.evaluation.evaluate` passes)."""
+        env of a native evaluation (what :func:`~panda_rapier.agents.evaluation.evaluate`
+        passes)."""
         if isinstance(envs, _native.Evaluation):
             frame = self._renderer.render_evaluation(envs, index)
         else:

@@ -11,8 +11,11 @@
 //! its own: [`ReachExpert`] moves the open hand to the goal; [`PickAndPlaceExpert`] runs the
 //! grasp sequence (`grasp.rs`: open, move above, descend, close, lift, carry, lower, release,
 //! retreat), also for `lift`; [`StackExpert`] runs it twice with a gentler grasp;
-//! [`PushExpert`] lines the closed hand up behind the cube and pushes. [`expert_for`] is the
-//! list: one line per task.
+//! [`PushExpert`] lines the closed hand up behind the cube and pushes; [`SlideExpert`] grasps
+//! the cube, slides it towards the goal and lets go at the speed that carries it there;
+//! [`FlipExpert`] turns the cube by pushing it with the closed fingers. [`expert_for`] is the
+//! list, one line per task of the core's registry (`TaskKind`; the compiler asks for a new
+//! task's line).
 
 mod flip;
 mod grasp;
@@ -32,10 +35,11 @@ pub use slide::SlideExpert;
 pub use stack::StackExpert;
 
 use nalgebra::{Isometry3, Matrix3, UnitQuaternion, Vector3};
+use panda_rapier_core::env::{make_task, ControlMode, EnvConfig};
 use panda_rapier_core::task::observation::{
     GRIPPER_WIDTH, JOINT_POSITIONS, JOINT_VELOCITIES, TCP_POSITION, TCP_VELOCITY,
 };
-use panda_rapier_core::task::{make_task, ControlMode, EnvConfig, ObservationLayout, TaskKind};
+use panda_rapier_core::task::{ObservationLayout, TaskKind};
 use panda_rapier_core::{
     Controller, CubeConfig, Error, IkOptions, IkWorkspace, Result, RobotModel, RobotSpec,
 };
@@ -244,6 +248,14 @@ impl ScriptedPolicy {
     /// The policy with explicit parameters.
     pub fn with_params(config: &EnvConfig, params: ScriptedParams) -> Result<Self> {
         config.validate()?;
+        if config.control_mode == ControlMode::EePose {
+            // The observation has no TCP orientation to steer a rotation by.
+            return Err(Error::InvalidConfig {
+                field: "control_mode".into(),
+                reason: "the scripted experts act in `ee` and `joints` control, not `ee_pose`"
+                    .into(),
+            });
+        }
         // The robot's facts (kinematics, base pose, start pose, joint order) exactly as the
         // environment sees them, without building a world.
         let robot = RobotSpec::new(&config.sim_config()?)?;
@@ -336,7 +348,8 @@ impl ScriptedPolicy {
         let delta =
             (decision.tcp_target - ahead).map(|d| (gain * d / ee_step).clamp(-limit, limit));
         match cx.config.control_mode {
-            ControlMode::Ee => {
+            // Refused by `with_params`.
+            ControlMode::Ee | ControlMode::EePose => {
                 for i in 0..3 {
                     action[i] = delta[i] as f32;
                 }
@@ -479,6 +492,17 @@ mod tests {
             ..EnvConfig::default()
         };
         assert_eq!(ScriptedPolicy::new(&joints).unwrap().action_dim(), 8);
+        let pose = EnvConfig {
+            control_mode: ControlMode::EePose,
+            ..EnvConfig::default()
+        };
+        match ScriptedPolicy::new(&pose) {
+            Err(Error::InvalidConfig { field, reason }) => {
+                assert_eq!(field, "control_mode");
+                assert!(reason.contains("ee_pose"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
         assert_eq!(policy().observation_dim(), 47);
     }
 }

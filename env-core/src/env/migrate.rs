@@ -14,12 +14,12 @@
 use serde_json::{Map, Value};
 
 #[cfg(doc)]
-use super::registry::TaskSpec;
-use super::registry::{TaskConfig, TaskKind};
-#[cfg(doc)]
 use super::EnvConfig;
 use crate::config::invalid;
 use crate::error::Result;
+#[cfg(doc)]
+use crate::task::registry::TaskSpec;
+use crate::task::registry::{TaskConfig, TaskKind};
 
 /// Every migration, in order, applied to a parsed document before it is read.
 pub(crate) fn migrate(document: &mut Value) -> Result<Vec<Deprecation>> {
@@ -353,14 +353,10 @@ const LEGACY_WEIGHTS: [(&str, f64); 6] = [
     ("release", 0.0),
 ];
 
-/// Terms a task's reward gained after 0.2, under a name every task took before 0.2. A
-/// configuration dumped before 0.2 (it holds all six [`LEGACY_WEIGHTS`] names) carries them
-/// with a weight that did nothing then: it is dropped, so the task's default (off) applies.
-pub(crate) const TERMS_ADDED_AFTER_0_2: [(TaskKind, &str); 1] = [(TaskKind::Stack, "lift")];
-
 /// Drops from `document`'s `reward_weights` the terms the task's reward does not have but
 /// every task took before 0.2, when they hold their old default (a dumped configuration),
-/// and, from such a dump, the terms the task gained since ([`TERMS_ADDED_AFTER_0_2`]),
+/// and, from such a dump, the terms the task gained since (its
+/// [`TaskSpec::TERMS_ADDED_AFTER_0_2`]),
 /// noting each; any other value is left for validation to refuse (it would do nothing).
 pub(crate) fn migrate_reward_weights(document: &mut Value) -> Result<Vec<Deprecation>> {
     let kind = match document.get("task") {
@@ -389,8 +385,8 @@ pub(crate) fn migrate_reward_weights(document: &mut Value) -> Result<Vec<Depreca
         .iter()
         .all(|(name, _)| weights.contains_key(*name));
     let mut notes = Vec::new();
-    for (task, name) in TERMS_ADDED_AFTER_0_2 {
-        if legacy_dump && task == kind && weights.remove(name).is_some() {
+    for &name in kind.terms_added_after_0_2() {
+        if legacy_dump && weights.remove(name).is_some() {
             notes.push(Deprecation {
                 key: format!("reward_weights.{name}"),
                 message: format!(
@@ -424,7 +420,7 @@ pub(crate) fn migrate_reward_weights(document: &mut Value) -> Result<Vec<Depreca
 mod tests {
     use super::*;
     use crate::config::ArmFidelity;
-    use crate::task::EnvConfig;
+    use crate::env::EnvConfig;
 
     /// The defaults with `task` (old documents set no episode length: the default 70 steps).
     fn with_task(task: TaskKind) -> EnvConfig {

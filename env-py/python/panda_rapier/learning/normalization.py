@@ -1,0 +1,138 @@
+"""Observation normalisation inside the policy network, so a saved model is self-contained.
+
+Gymnasium-Robotics and rl-zoo3 normalise observations with a ``VecNormalize`` wrapper whose
+statistics live in a separate file that every user of the model must find and apply.
+:class:`NormalizedFlatten` is a stable-baselines3 features extractor instead: it flattens the
+goal dict in Gymnasium's order and standardises it with a mean and scale held as buffers of the
+network, saved and loaded with the model's weights. The statistics are fitted once, before
+training, to the states the scripted expert visits (:func:`expert_statistics`; the whole task,
+from reaching to placing), and never change afterwards, so evaluation is deterministic.
+
+In a recipe (rl-zoo3 format)::
+
+    policy_kwargs: "dict(features_extractor_class=NormalizedFlatten)"
+    callback: panda_rapier.learning.normalization.FitNormalizerCallback
+
+(``panda-rapier train`` resolves ``NormalizedFlatten``; rl-zoo3 needs the full path
+``__import__('panda_rapier.learning.normalization').learning.normalization.NormalizedFlatten``.)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch as th
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+
+from .. import _common
+from .._common import CLIP
+from ..registration import MAX_EPISODE_STEPS
+from ..seeds import FIT_FIRST_SEED
+from .rollouts import collect
+
+__all__ = [
+    "FitNormalizerCallback",
+    "NormalizedFlatten",
+    "expert_statistics",
+    "fit_normalizers",
+]
+
+#: Smallest scale a feature is divided by (:data:`panda_rapier._common.MIN_SCALE`).
+MIN_SCALE = _common.MIN_SCALE
+#: Episodes of the scripted expert the statistics are taken from, and the seed of the first.
+FIT_EPISODES = 64
+
+
+class NormalizedFlatten(BaseFeaturesExtractor):
+    """Flattens a ``Dict`` observation (keys sorted, as ``gymnasium.spaces.flatten`` does) and
+    maps each entry to ``clip((x - mean) / scale, -10, 10)``. Until :meth:`fit` is called the
+    map is the identity."""
+
+    # Buffers (registered in __init__): saved with the policy and moved with it to a device.
+    mean: th.Tensor
+    scale: th.Tensor
+
+    def __init__(self, observation_space: gym.spaces.Dict, clip: float = CLIP) -> None:
+        if not isinstance(observation_space, gym.spaces.Dict):
+            raise TypeError(f"NormalizedFlatten needs a Dict space, got {observation_space}")
+        keys = sorted(observation_space.spaces)
+        dim = sum(gym.spaces.flatdim(observation_space.spaces[k]) for k in keys)
+        super().__init__(observation_space, features_dim=dim)
+        self.keys = keys
+        self.clip = float(clip)
+        self.register_buffer("mean", th.zeros(dim))
+        self.register_buffer("scale", th.ones(dim))
+
+    def fit(self, flat: np.ndarray, min_scale: float = MIN_SCALE) -> None:
+        """Sets mean and scale (standard deviation, at least ``min_scale``) from rows of flat
+        observations."""
+        mean, scale = _common.standardisation(flat, self.features_dim, min_scale)
+        self.mean.copy_(th.as_tensor(mean))
+        self.scale.copy_(th.as_tensor(scale))
+
+    def forward(self, observations: Mapping[str, th.Tensor]) -> th.Tensor:
+        flat = th.cat([observations[k].flatten(start_dim=1) for k in self.keys], dim=1)
+        return ((flat - self.mean) / self.scale).clamp(-self.clip, self.clip)
+
+
+def fit_normalizers(policy: th.nn.Module, flat: np.ndarray) -> int:
+    """Fits every :class:`NormalizedFlatten` in ``policy`` (actor and critics of off-policy
+    algorithms have their own) to ``flat``; returns how many were fitted."""
+    fitted = 0
+    for module in policy.modules():
+        if isinstance(module, NormalizedFlatten):
+            module.fit(flat)
+            fitted += 1
+    return fitted
+
+
+def expert_statistics(
+    config: Mapping[str, Any],
+    episodes: int = FIT_EPISODES,
+    first_seed: int = FIT_FIRST_SEED,
+) -> np.ndarray:
+    """The flat observations of ``episodes`` seeded episodes of the scripted expert in the
+    environment ``config`` (deterministic: the same rows every time)."""
+    demos, _ = collect(config, episodes, first_seed=first_seed)
+    return demos.observations
+
+
+def _config_of_vec_env(env: Any) -> dict[str, Any]:
+    """The configuration of a VecEnv's first environment, with a time limit: environments
+    made by ``gym.make`` (rl-zoo3's) leave it to Gymnasium's ``TimeLimit`` (``None`` in
+    their own configuration)."""
+    config = env.get_attr("config", [0])[0]
+    if not isinstance(config, Mapping):  # pragma: no cover - a non-panda_rapier env
+        raise TypeError("FitNormalizerCallback needs a panda_rapier environment")
+    config = dict(config)
+    if config.get("max_episode_steps") is None:
+        spec = env.get_attr("spec", [0])[0]
+        limit = getattr(spec, "max_episode_steps", None)
+        config["max_episode_steps"] = int(limit) if limit else MAX_EPISODE_STEPS
+    return config
+
+
+class FitNormalizerCallback(BaseCallback):
+    """At the start of training, fits the model's :class:`NormalizedFlatten` extractors to
+    the scripted expert's states in the training environment (unless already fitted, as in a
+    resumed run or a cloned policy)."""
+
+    def __init__(self, episodes: int = FIT_EPISODES, verbose: int = 0) -> None:
+        super().__init__(verbose)
+        self.episodes = int(episodes)
+
+    def _on_training_start(self) -> None:
+        extractors = [m for m in self.model.policy.modules() if isinstance(m, NormalizedFlatten)]
+        if not extractors or any(bool((m.scale != 1).any()) for m in extractors):
+            return
+        flat = expert_statistics(_config_of_vec_env(self.training_env), self.episodes)
+        fit_normalizers(self.model.policy, flat)
+        if self.verbose:
+            print(f"observation normaliser fitted to {len(flat)} expert states")
+
+    def _on_step(self) -> bool:
+        return True
