@@ -24,7 +24,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let start = sim.object_state(sim.object("cube").unwrap()).position;
     println!(
         "panda_rapier: Franka Panda, cube {:.0} mm / {} kg at ({:.3}, {:.3}, {:.3}), physics dt {} s x {} substeps, {} solver iterations",
-        sim.scene().objects[0].size * 1000.0,
+        sim.scene().objects[0].shape.cube_size().unwrap_or(f64::NAN) * 1000.0,
         sim.scene().objects[0].mass,
         start.x, start.y, start.z,
         sim.config().physics.solver.dt,
@@ -48,7 +48,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "grip width        {:.4} m (cube {:.3} m)",
         report.grip_width,
-        sim.scene().objects[0].size
+        sim.scene().objects[0].shape.cube_size().unwrap_or(f64::NAN)
     );
     println!("slip in the hand  {:.2} mm, {:.2} deg from lift to placing; {:.2} mm, {:.2} deg during the carry",
         report.max_slip * 1e3, report.max_slip_angle.to_degrees(), report.carry_slip * 1e3, report.carry_slip_angle.to_degrees());

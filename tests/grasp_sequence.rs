@@ -39,8 +39,8 @@ fn tutorial_pick_and_place_holds_the_cube_by_friction() {
         "placed {:.1} mm from the target",
         report.placement_error * 1e3
     );
-    let resting_height =
-        sim.scene().platform.as_ref().unwrap().top_center[2] + sim.scene().objects[0].size / 2.0;
+    let resting_height = sim.scene().platform.as_ref().unwrap().top_center[2]
+        + sim.scene().objects[0].shape.cube_size().unwrap() / 2.0;
     assert!(
         (report.final_position.z - resting_height).abs() < 0.003,
         "cube centre at z = {:.4}, expected {:.4} resting on the platform",

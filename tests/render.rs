@@ -49,7 +49,7 @@ fn visual_primitives_describe_every_collider_at_its_pose() {
             .norm()
             < 1e-6
     );
-    let half = sim.scene().objects[0].size / 2.0;
+    let half = sim.scene().objects[0].shape.cube_size().unwrap() / 2.0;
     assert!(
         matches!(cube.shape, VisualShape::Box { half_extents } if (half_extents.x - half).abs() < 1e-6)
     );

@@ -38,8 +38,9 @@ pub use error::{Error, Result};
 pub use kinematics::{pointing_down, IkOptions, IkReport, IkSolution, IkWorkspace};
 pub use model::{JointInfo, JointType, LinkInfo, Mimic, RobotModel, Tcp};
 pub use physics::{
-    BodyState, JointControl, JointState, LinkState, ObjectContacts, ObjectId, ObjectSpec,
-    ObjectTouch, Scene, SimSnapshot, Simulation, VisualPrimitive, VisualShape, VisualTag,
+    BodyState, JointControl, JointState, LinkState, ObjectContacts, ObjectId, ObjectShape,
+    ObjectSpec, ObjectTouch, Scene, ShapePart, SimSnapshot, Simulation, VisualPrimitive,
+    VisualShape, VisualTag,
 };
 pub use robot::panda::READY as PANDA_READY;
 #[allow(deprecated)]

@@ -52,7 +52,8 @@ impl TutorialSequence {
         let half = scene
             .objects
             .first()
-            .map_or(CubeConfig::default().size, |cube| cube.size)
+            .and_then(|cube| cube.shape.cube_size())
+            .unwrap_or(CubeConfig::default().size)
             / 2.0;
         Self {
             place_at: Vector3::new(p.top_center[0], p.top_center[1], p.top_center[2] + half),

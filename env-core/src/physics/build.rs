@@ -119,34 +119,39 @@ impl Simulation {
             )
         });
 
-        // The movable objects, in order: cubes that collide with everything.
-        let objects = scene
-            .objects
-            .iter()
-            .map(|spec| {
-                let body = world.bodies.insert(
-                    RigidBodyBuilder::dynamic()
-                        .translation(vec_from_array(spec.position))
-                        .can_sleep(false)
-                        .build(),
-                );
-                let half = (spec.size / 2.0) as f32;
-                let collider = world.colliders.insert_with_parent(
-                    ColliderBuilder::cuboid(half, half, half)
-                        .mass(spec.mass as f32)
-                        .friction(spec.friction as f32)
-                        .collision_groups(InteractionGroups::new(
-                            OBJECT_GROUP,
-                            Group::ALL,
-                            Default::default(),
-                        ))
-                        .build(),
-                    body,
-                    &mut world.bodies,
-                );
-                SceneObject { body, collider }
-            })
-            .collect();
+        // The objects, in order: bodies of their shapes that collide with everything (fixtures
+        // are fixed bodies; rapier never pairs two fixed bodies).
+        let mut objects = Vec::with_capacity(scene.objects.len());
+        for (i, spec) in scene.objects.iter().enumerate() {
+            let (shape, local) = spec.shape.build(&format!("scene.objects[{i}].shape"))?;
+            let builder = if spec.fixed {
+                RigidBodyBuilder::fixed()
+            } else {
+                RigidBodyBuilder::dynamic().can_sleep(false)
+            };
+            let body = world
+                .bodies
+                .insert(builder.translation(vec_from_array(spec.position)).build());
+            let collider = world.colliders.insert_with_parent(
+                ColliderBuilder::new(shape)
+                    .position(pose_from_na(&local))
+                    .mass(spec.mass as f32)
+                    .friction(spec.friction as f32)
+                    .collision_groups(InteractionGroups::new(
+                        OBJECT_GROUP,
+                        Group::ALL,
+                        Default::default(),
+                    ))
+                    .build(),
+                body,
+                &mut world.bodies,
+            );
+            objects.push(SceneObject {
+                body,
+                collider,
+                fixed: spec.fixed,
+            });
+        }
 
         // The robot, as one multibody.
         let options = UrdfLoaderOptions {

@@ -217,14 +217,23 @@ impl Simulation {
         self.put_kinematic_arm(arm);
     }
 
-    /// Whether any robot link, at `link_poses`, intersects the floor or the platform (the
+    /// Whether any robot link, at `link_poses`, intersects the floor, the platform or a fixture (the
     /// fingers count: pushed into a surface they would drag the welded gripper along).
     fn links_enter_scenery(&self, link_poses: &[Isometry3<f64>]) -> bool {
         let colliders = &self.world.colliders;
-        let scenery = [Some(self.floor_collider), self.platform_collider].map(|c| {
-            c.and_then(|c| colliders.get(c))
-                .map(|c| (c, c.compute_aabb()))
-        });
+        // The floor, the platform and the fixtures (no allocation: this runs every step).
+        let fixtures = self
+            .objects
+            .iter()
+            .filter(|o| o.fixed)
+            .map(|o| Some(o.collider));
+        let scenery = || {
+            [Some(self.floor_collider), self.platform_collider]
+                .into_iter()
+                .chain(fixtures.clone())
+                .flatten()
+                .filter_map(|c| colliders.get(c))
+        };
         self.robot_colliders.iter().any(|&(handle, link)| {
             let Some(collider) = colliders.get(handle) else {
                 return false;
@@ -232,11 +241,11 @@ impl Simulation {
             let local = collider.position_wrt_parent().copied().unwrap_or_default();
             let pose = pose_from_na(&link_poses[link]) * local;
             let aabb = collider.shape().compute_aabb(&pose);
-            scenery.iter().flatten().any(|(scenery, scenery_aabb)| {
+            scenery().any(|scenery| {
                 // Pairs the collision filter skips (the base standing on the floor) don't count;
                 // disjoint bounding boxes (most links, most of the time) need no exact test.
                 collider.collision_groups().test(scenery.collision_groups())
-                    && aabb.intersects(scenery_aabb)
+                    && aabb.intersects(&scenery.compute_aabb())
                     && intersection_test(
                         &pose,
                         collider.shape(),

@@ -10,6 +10,7 @@
 //! |---|---|---|
 //! | building | `build.rs` | [`Simulation::new`], [`Simulation::with_model`], [`Simulation::with_scene`] |
 //! | scene | `scene.rs` | [`Scene`], [`ObjectSpec`], [`ObjectId`]; object poses and properties; the `attach` shortcut grasp |
+//! | shapes | `shape.rs` | [`ObjectShape`], [`ShapePart`]: boxes, spheres, cylinders, capsules, hulls, compounds |
 //! | control | `control.rs` | [`JointControl`]; joint commands, the gripper, teleporting the robot |
 //! | state | `state.rs` | [`BodyState`], [`JointState`], [`LinkState`]; joints, links, TCP, objects |
 //! | contacts | `contacts.rs` | [`ObjectContacts`], [`ObjectTouch`]: what touches an object |
@@ -26,6 +27,7 @@ mod control;
 mod convert;
 mod kinematic_arm;
 mod scene;
+mod shape;
 mod snapshot;
 mod state;
 mod visuals;
@@ -45,6 +47,7 @@ pub use contacts::{ObjectContacts, ObjectTouch};
 pub use control::JointControl;
 use kinematic_arm::KinematicArm;
 pub use scene::{ObjectId, ObjectSpec, Scene};
+pub use shape::{ObjectShape, ShapePart, MAX_FACE_CORNERS};
 pub use snapshot::SimSnapshot;
 pub use state::{BodyState, JointState, LinkState};
 pub use visuals::{VisualPrimitive, VisualShape, VisualTag};
@@ -99,11 +102,13 @@ impl Arm {
     }
 }
 
-/// One movable object of the world.
+/// One object of the world.
 #[derive(Debug, Clone)]
 struct SceneObject {
     body: RigidBodyHandle,
     collider: ColliderHandle,
+    /// A fixture (a fixed body).
+    fixed: bool,
 }
 
 /// One physics world: the robot, the floor and a [`Scene`].

@@ -7,7 +7,8 @@ use rapier3d::math::Vector;
 
 use rapier3d::dynamics::FixedJointBuilder;
 
-use super::convert::{pose_from_na, pose_to_na};
+use super::convert::{pose_from_na, pose_to_na, vec_to_na};
+use super::shape::ObjectShape;
 use super::{BodyState, SceneObject, Simulation};
 use crate::config::{non_negative, positive, CubeConfig, PlatformConfig};
 use crate::error::{ensure_all_finite, Error, Result};
@@ -28,19 +29,23 @@ pub struct Scene {
     pub floor_friction: Option<f64>,
 }
 
-/// One movable object: a cube.
+/// One object of a scene: a body of some [`ObjectShape`] that moves (a cube, a peg) or a
+/// fixture that stays where the task puts it (a box with a hole).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ObjectSpec {
     /// Unique name ([`Simulation::object`] looks it up).
     pub name: String,
-    /// Edge length (m).
-    pub size: f64,
-    /// Mass (kg).
+    /// Its shape in its own frame.
+    pub shape: ObjectShape,
+    /// Mass (kg), spread uniformly over the shape (unused by a fixture, but still > 0).
     pub mass: f64,
     /// Friction coefficient.
     pub friction: f64,
-    /// Where its centre starts (m, world frame); tasks place it at every reset.
+    /// Where its frame starts (m, world frame); tasks place it at every reset.
     pub position: [f64; 3],
+    /// A fixture: a fixed body that nothing moves but [`Simulation::set_object_pose`] (and a
+    /// kinematic arm cannot enter, as the floor and the platform).
+    pub fixed: bool,
 }
 
 impl ObjectSpec {
@@ -48,10 +53,11 @@ impl ObjectSpec {
     pub fn cube(name: &str, cube: &CubeConfig, position: [f64; 3]) -> Self {
         Self {
             name: name.into(),
-            size: cube.size,
+            shape: ObjectShape::cube(cube.size),
             mass: cube.mass,
             friction: cube.friction,
             position,
+            fixed: false,
         }
     }
 }
@@ -85,7 +91,7 @@ impl Scene {
         }
         for (i, object) in self.objects.iter().enumerate() {
             let field = |what: &str| format!("scene.objects[{i}].{what}");
-            positive(&field("size"), object.size)?;
+            object.shape.validate(&field("shape"))?;
             positive(&field("mass"), object.mass)?;
             non_negative(&field("friction"), object.friction)?;
             ensure_all_finite(&field("position"), &object.position)?;
@@ -180,8 +186,8 @@ impl Simulation {
         Ok(())
     }
 
-    /// Changes an object's edge length, mass and friction (domain randomisation); its pose and
-    /// velocity are kept.
+    /// Changes a cube's edge length, mass and friction (domain randomisation); its pose and
+    /// velocity are kept. Objects of other shapes than a cube are refused.
     pub fn set_object_properties(
         &mut self,
         object: ObjectId,
@@ -204,6 +210,15 @@ impl Simulation {
             });
         }
         let collider = self.scene_object(object)?.collider;
+        if self.scene.objects[object.0].shape.cube_size().is_none() {
+            return Err(Error::InvalidConfig {
+                field: format!("scene.objects[{}].shape", object.0),
+                reason: format!(
+                    "only a cube's size can be changed, and `{}` is no cube",
+                    self.scene.objects[object.0].name
+                ),
+            });
+        }
         if let Some(collider) = self.world.colliders.get_mut(collider) {
             let half = (size / 2.0) as f32;
             collider.set_shape(SharedShape::cuboid(half, half, half));
@@ -213,8 +228,28 @@ impl Simulation {
         Ok(())
     }
 
-    /// Edge length (m), mass (kg) and friction of an object as simulated now (NaN for an id of
-    /// another world's object).
+    /// The shape `object` was built with (`None` for an id of another world's object).
+    pub fn object_shape(&self, object: ObjectId) -> Option<&ObjectShape> {
+        self.scene.objects.get(object.0).map(|o| &o.shape)
+    }
+
+    /// The half extents (m) of the smallest box aligned with `object`'s frame and centred on
+    /// its origin that holds its shape as simulated now (NaN for an id of another world's
+    /// object).
+    pub fn object_half_extents(&self, object: ObjectId) -> Vector3<f64> {
+        let collider = self.objects.get(object.0).map(|o| o.collider);
+        match collider.and_then(|c| self.world.colliders.get(c)) {
+            Some(c) => {
+                let local = c.position_wrt_parent().copied().unwrap_or_default();
+                let aabb = c.shape().compute_aabb(&local);
+                vec_to_na(aabb.mins).abs().sup(&vec_to_na(aabb.maxs).abs())
+            }
+            None => Vector3::repeat(f64::NAN),
+        }
+    }
+
+    /// Edge length (m, NaN for another shape than a cube), mass (kg) and friction of an object
+    /// as simulated now (NaN for an id of another world's object).
     pub fn object_properties(&self, object: ObjectId) -> (f64, f64, f64) {
         let collider = self.objects.get(object.0).map(|o| o.collider);
         match collider.and_then(|c| self.world.colliders.get(c)) {
@@ -222,8 +257,9 @@ impl Simulation {
                 let size = c
                     .shape()
                     .as_cuboid()
-                    .map(|b| 2.0 * b.half_extents.x as f64)
-                    .unwrap_or(f64::NAN);
+                    .map(|b| b.half_extents)
+                    .filter(|h| h.x == h.y && h.y == h.z)
+                    .map_or(f64::NAN, |h| 2.0 * h.x as f64);
                 (size, c.mass() as f64, c.friction() as f64)
             }
             None => (f64::NAN, f64::NAN, f64::NAN),
