@@ -90,6 +90,56 @@ fn a_hand_driven_into_the_platform_stops_above_it() {
 }
 
 #[test]
+fn a_hand_driven_into_a_fixture_stops_above_it() {
+    // A 10 cm block fixed on the floor where the platform would be, and no platform.
+    let config = kinematic();
+    let model = panda_rapier::RobotModel::from_config(&config).unwrap();
+    let top = panda_rapier::Scene::tutorial().platform.unwrap().top_center;
+    let block = panda_rapier::ObjectSpec {
+        name: "block".into(),
+        shape: panda_rapier::ObjectShape::Box {
+            half_extents: [0.05; 3],
+        },
+        mass: 1.0,
+        friction: 0.5,
+        position: [top[0], top[1], 0.05],
+        fixed: true,
+    };
+    let scene = panda_rapier::Scene {
+        objects: vec![block],
+        ..Default::default()
+    };
+    let mut sim = Simulation::with_scene(config, model, scene).unwrap();
+    let q = sim.joint_positions();
+    let inside = Vector3::new(top[0], top[1], 0.05);
+    let target = sim
+        .model()
+        .inverse_kinematics(
+            &inside,
+            Some(&hand_down()),
+            &q,
+            sim.base_pose(),
+            &IkOptions::default(),
+        )
+        .unwrap()
+        .q;
+    sim.set_position_targets(&target).unwrap();
+    let mut lowest = f64::INFINITY;
+    for _ in 0..100 {
+        sim.step_control();
+        lowest = lowest.min(sim.tcp_state().position.z);
+    }
+    println!(
+        "lowest TCP {lowest:.4} m over a fixture top at 0.100 m; {} physics steps refused",
+        sim.arm_blocked_steps()
+    );
+    assert!(sim.arm_blocked_steps() > 0);
+    assert!(lowest > 0.1, "the TCP went {lowest:.4} m, into the fixture");
+    let block = sim.object("block").unwrap();
+    assert!((sim.object_state(block).position.z - 0.05).abs() < 1e-7);
+}
+
+#[test]
 fn torque_control_needs_the_dynamic_arm() {
     let mut sim = Simulation::new(kinematic()).unwrap();
     let joint = sim.model().actuated_joints()[1];
