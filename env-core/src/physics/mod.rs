@@ -13,6 +13,7 @@
 //! | control | `control.rs` | [`JointControl`]; joint commands, the gripper, teleporting the robot |
 //! | state | `state.rs` | [`BodyState`], [`JointState`], [`LinkState`]; joints, links, TCP, objects |
 //! | contacts | `contacts.rs` | [`ObjectContacts`], [`ObjectTouch`]: what touches an object |
+//! | touch | `touch.rs` | [`TouchReading`], [`FingerTouch`], [`Wrench`]: finger contact forces, the wrist's force-torque reading |
 //! | visuals | `visuals.rs` | [`VisualPrimitive`]: every collider's shape and pose, for renderers |
 //! | snapshots | `snapshot.rs` | [`SimSnapshot`]: save and restore the whole state |
 //! | kinematic arm | `kinematic_arm.rs` | the placed arm of [`crate::ArmFidelity::Kinematic`] |
@@ -28,6 +29,7 @@ mod kinematic_arm;
 mod scene;
 mod snapshot;
 mod state;
+mod touch;
 mod visuals;
 
 use nalgebra::Isometry3;
@@ -47,6 +49,7 @@ use kinematic_arm::KinematicArm;
 pub use scene::{ObjectId, ObjectSpec, Scene};
 pub use snapshot::SimSnapshot;
 pub use state::{BodyState, JointState, LinkState};
+pub use touch::{FingerTouch, TouchReading, Wrench};
 pub use visuals::{VisualPrimitive, VisualShape, VisualTag};
 
 const STATIC_GROUP: Group = Group::GROUP_1;
@@ -136,6 +139,11 @@ pub struct Simulation {
     torques_applied: bool,
     /// Objects held to the hand by a fixed joint ([`Simulation::attach`]), with the joint.
     attachments: Vec<(ObjectId, ImpulseJointHandle)>,
+    /// The gripper's hand link first, then every link below it (empty without a gripper):
+    /// the subtree the wrist reading weighs.
+    hand_links: Vec<usize>,
+    /// The hand subtree's accelerations over the last physics step (empty before the first).
+    hand_motion: Vec<touch::BodyRate>,
 }
 
 impl std::fmt::Debug for Simulation {
@@ -191,7 +199,9 @@ impl Simulation {
         } else {
             self.apply_joint_torques();
         }
+        self.record_hand_motion_before();
         self.world.step();
+        self.record_hand_motion_after();
         self.time += self.config.physics.solver.dt;
         self.steps += 1;
     }
