@@ -14,18 +14,20 @@ fn hand_rotation(sim: &Simulation) -> UnitQuaternion<f64> {
     sim.link_state("panda_hand").unwrap().state.orientation
 }
 
-/// The mean world-frame wrist force and the fingers' summed force over `steps` physics steps.
+/// The world-frame wrist force, the fingers' summed force and normal force, each the mean
+/// over `steps` physics steps (one touch window).
 fn mean_readings(sim: &mut Simulation, steps: usize) -> (Vector3<f64>, Vector3<f64>, f64) {
-    let (mut wrist, mut fingers, mut normal) = (Vector3::zeros(), Vector3::zeros(), 0.0);
+    sim.begin_touch_window();
     for _ in 0..steps {
         sim.step();
-        let touch = sim.touch();
-        wrist += hand_rotation(sim) * touch.wrist.force;
-        fingers += touch.fingers[0].force + touch.fingers[1].force;
-        normal += touch.fingers[0].normal_force + touch.fingers[1].normal_force;
     }
-    let n = steps as f64;
-    (wrist / n, fingers / n, normal / n)
+    let touch = sim.touch();
+    let [a, b] = touch.fingers;
+    (
+        hand_rotation(sim) * touch.wrist.force,
+        a.force + b.force,
+        a.normal_force + b.normal_force,
+    )
 }
 
 fn assert_weight(what: &str, measured: f64, expected: f64) {

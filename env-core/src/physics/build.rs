@@ -16,6 +16,7 @@ use rapier3d_urdf::{
 
 use super::convert::{pose_from_na, vec_from_array};
 use super::kinematic_arm::KinematicArm;
+use super::touch::TouchWindow;
 use super::{
     Arm, DofSlot, JointControl, Scene, SceneObject, Simulation, ARM_GROUP, OBJECT_GROUP,
     PROXIMAL_GROUP, STATIC_GROUP,
@@ -257,7 +258,7 @@ impl Simulation {
             torques_applied: false,
             attachments: Vec::new(),
             hand_links,
-            hand_motion: Vec::with_capacity(hand_capacity),
+            touch_window: TouchWindow::with_capacity(hand_capacity),
         };
         // rapier fills in mass properties at the first step; the wrist reading weighs the hand
         // from the start (the same values the first step computes, so nothing else changes).
@@ -267,6 +268,7 @@ impl Simulation {
             }
         }
         sim.set_joint_positions(&q0)?;
+        sim.begin_touch_window();
         Ok(sim)
     }
 }

@@ -142,8 +142,9 @@ pub struct Simulation {
     /// The gripper's hand link first, then every link below it (empty without a gripper):
     /// the subtree the wrist reading weighs.
     hand_links: Vec<usize>,
-    /// The hand subtree's accelerations over the last physics step (empty before the first).
-    hand_motion: Vec<touch::BodyRate>,
+    /// What the touch reading is computed from: the last control step's contact forces on
+    /// the hand and its motion.
+    touch_window: touch::TouchWindow,
 }
 
 impl std::fmt::Debug for Simulation {
@@ -192,25 +193,33 @@ impl Simulation {
         self.config.physics.solver.dt * self.config.substeps as f64
     }
 
-    /// Advances the world by one physics step (`solver.dt`).
+    /// Advances the world by one physics step (`solver.dt`), added to the touch reading's
+    /// window ([`Simulation::begin_touch_window`]).
     pub fn step(&mut self) {
+        self.physics_step();
+    }
+
+    /// Advances the world by one control period (`solver.substeps` physics steps); the touch
+    /// reading ([`Simulation::touch`]) then covers the period.
+    pub fn step_control(&mut self) {
+        self.begin_touch_window();
+        for _ in 0..self.config.substeps {
+            self.physics_step();
+        }
+    }
+
+    /// One physics step, added to the touch window.
+    fn physics_step(&mut self) {
+        // (`step` and `step_control` differ in the window only.)
         if matches!(self.arm, Arm::Kinematic { .. }) {
             self.advance_kinematic_arm();
         } else {
             self.apply_joint_torques();
         }
-        self.record_hand_motion_before();
         self.world.step();
-        self.record_hand_motion_after();
+        self.accumulate_touch();
         self.time += self.config.physics.solver.dt;
         self.steps += 1;
-    }
-
-    /// Advances the world by one control period (`solver.substeps` physics steps).
-    pub fn step_control(&mut self) {
-        for _ in 0..self.config.substeps {
-            self.step();
-        }
     }
 
     /// The largest linear (m/s) and angular (rad/s) speed of any body; NaN propagates, so a

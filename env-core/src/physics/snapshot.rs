@@ -5,7 +5,7 @@ use rapier3d::dynamics::{
 };
 use rapier3d::geometry::{BroadPhaseBvh, ColliderSet, NarrowPhase};
 
-use super::touch::BodyRate;
+use super::touch::TouchWindow;
 use super::{Arm, JointControl, ObjectId, Scene, Simulation};
 use crate::config::SimConfig;
 use crate::error::{Error, Result};
@@ -28,7 +28,7 @@ pub struct SimSnapshot {
     controls: Vec<JointControl>,
     torques_applied: bool,
     attachments: Vec<(ObjectId, ImpulseJointHandle)>,
-    hand_motion: Vec<BodyRate>,
+    touch_window: TouchWindow,
     time: f64,
     steps: u64,
 }
@@ -59,7 +59,7 @@ impl Simulation {
             controls: self.controls.clone(),
             torques_applied: self.torques_applied,
             attachments: self.attachments.clone(),
-            hand_motion: self.hand_motion.clone(),
+            touch_window: self.touch_window.clone(),
             time: self.time,
             steps: self.steps,
         }
@@ -89,8 +89,8 @@ impl Simulation {
         self.controls.clone_from(&snapshot.controls);
         self.torques_applied = snapshot.torques_applied;
         self.attachments.clone_from(&snapshot.attachments);
-        // `clone_from` keeps this buffer's capacity: stepping after a restore does not allocate.
-        self.hand_motion.clone_from(&snapshot.hand_motion);
+        // Keeps this buffer's capacity: stepping after a restore does not allocate.
+        self.touch_window.copy_from(&snapshot.touch_window);
         self.time = snapshot.time;
         self.steps = snapshot.steps;
         Ok(())

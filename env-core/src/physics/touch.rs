@@ -1,8 +1,15 @@
-//! Touch: the contact forces on each finger and the wrist's force-torque reading, from the
-//! last physics step's contact impulses and the hand's motion over that step.
+//! Touch: the contact forces on each finger and the wrist's force-torque reading, as means
+//! over the last control step (the physics steps since [`Simulation::begin_touch_window`],
+//! which [`Simulation::step_control`] and the environment's control step call): the contact
+//! impulses of its physics steps and the hand's motion over it.
 //!
-//! Forces are impulses over the physics step divided by its length (`physics.solver.dt`): rapier
-//! sums each contact's impulse over its solver substeps, so they are the step's mean force (N).
+//! Each physics step's contact impulse is divided by its length (`physics.solver.dt`; rapier
+//! sums each contact's impulse over its solver substeps) and the forces are averaged over the
+//! window's physics steps: a mean force in newtons, as a force sensor sampled at the control
+//! rate behind a boxcar anti-aliasing filter reads. (The arm's joint motors correct their
+//! targets at the control rate, so within a control step the hand's acceleration swings
+//! by about 1 m/s^2 even when it holds still: a single physics step's reading would carry
+//! that.)
 
 use nalgebra::Vector3;
 use rapier3d::dynamics::{RigidBody, RigidBodyHandle};
@@ -93,15 +100,54 @@ impl TouchReading {
     }
 }
 
-/// The linear and angular momentum rates of one body of the hand subtree over the last
-/// physics step (before the step: its velocity and angular momentum).
+/// The velocity and angular momentum of one body of the hand subtree at the start of the
+/// touch window, and their rates over it.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct BodyRate {
+struct BodyRate {
     body: RigidBodyHandle,
-    /// Linear acceleration of the centre of mass (m/s^2), or its velocity before the step.
-    linear: Vector3<f64>,
-    /// Rate of the angular momentum about the centre of mass (N m), or the momentum.
-    angular: Vector3<f64>,
+    /// Velocity of the centre of mass at the window's start (m/s).
+    velocity: Vector3<f64>,
+    /// Angular momentum about the centre of mass at the window's start (kg m^2/s).
+    momentum: Vector3<f64>,
+    /// Mean acceleration of the centre of mass over the window (m/s^2).
+    acceleration: Vector3<f64>,
+    /// Mean rate of the angular momentum over the window (N m).
+    momentum_rate: Vector3<f64>,
+}
+
+/// What the touch reading is computed from: sums over the physics steps of the window (the
+/// last control step) and the hand subtree's motion over it. Part of snapshots.
+#[derive(Debug, Clone, Default)]
+pub(super) struct TouchWindow {
+    /// Physics steps summed.
+    steps: u32,
+    /// Per finger: the summed normal force and force vector (N, world frame), over the steps.
+    fingers: [(f64, Vector3<f64>); 2],
+    /// The contact forces on the hand subtree from outside it, summed over the steps (N, world
+    /// frame), and their moments about the world origin (N m).
+    contact_force: Vector3<f64>,
+    contact_moment: Vector3<f64>,
+    /// The hand subtree's bodies.
+    bodies: Vec<BodyRate>,
+}
+
+impl TouchWindow {
+    /// A window with room for `bodies` bodies (stepping then never allocates).
+    pub(super) fn with_capacity(bodies: usize) -> Self {
+        Self {
+            bodies: Vec::with_capacity(bodies),
+            ..Self::default()
+        }
+    }
+
+    /// Restores `other` into `self`, keeping this buffer's capacity.
+    pub(super) fn copy_from(&mut self, other: &Self) {
+        self.steps = other.steps;
+        self.fingers = other.fingers;
+        self.contact_force = other.contact_force;
+        self.contact_moment = other.contact_moment;
+        self.bodies.clone_from(&other.bodies);
+    }
 }
 
 /// Angular momentum about the centre of mass (world frame).
@@ -110,11 +156,9 @@ fn angular_momentum(rb: &RigidBody) -> Vector3<f64> {
         .mass_properties()
         .local_mprops
         .reconstruct_inertia_matrix();
-    let r = rot_to_na(*rb.rotation());
     let inertia = nalgebra::Matrix3::from_fn(|i, j| local.col(j)[i] as f64);
-    let world =
-        r.to_rotation_matrix().matrix() * inertia * r.to_rotation_matrix().matrix().transpose();
-    world * vec_to_na(rb.angvel())
+    let r = rot_to_na(*rb.rotation()).to_rotation_matrix();
+    (r.matrix() * inertia * r.matrix().transpose()) * vec_to_na(rb.angvel())
 }
 
 impl Simulation {
@@ -143,31 +187,71 @@ impl Simulation {
             })
     }
 
-    /// Records the hand subtree's velocities and angular momenta before a physics step.
-    pub(super) fn record_hand_motion_before(&mut self) {
-        let mut rates = std::mem::take(&mut self.hand_motion);
-        rates.clear();
+    /// Starts a new touch window: [`Simulation::touch`] then reads the mean over the physics
+    /// steps taken from here on. [`Simulation::step_control`] and the environment's control
+    /// step start one each (so the reading is the last control step's mean); a bare
+    /// [`Simulation::step`] adds to the current window. A window that holds no step reads no
+    /// contact and no motion (the hand's static weight).
+    pub fn begin_touch_window(&mut self) {
+        let mut window = std::mem::take(&mut self.touch_window);
+        window.steps = 0;
+        window.fingers = Default::default();
+        window.contact_force = Vector3::zeros();
+        window.contact_moment = Vector3::zeros();
+        window.bodies.clear();
         for body in self.hand_subtree_bodies() {
             if let Some(rb) = self.world.bodies.get(body) {
-                rates.push(BodyRate {
+                window.bodies.push(BodyRate {
                     body,
-                    linear: vec_to_na(rb.linvel()),
-                    angular: angular_momentum(rb),
+                    velocity: vec_to_na(rb.linvel()),
+                    momentum: angular_momentum(rb),
+                    acceleration: Vector3::zeros(),
+                    momentum_rate: Vector3::zeros(),
                 });
             }
         }
-        self.hand_motion = rates;
+        self.touch_window = window;
     }
 
-    /// Turns the velocities recorded before the step into rates over it.
-    pub(super) fn record_hand_motion_after(&mut self) {
-        let dt = self.config.physics.solver.dt;
-        for rate in &mut self.hand_motion {
-            if let Some(rb) = self.world.bodies.get(rate.body) {
-                rate.linear = (vec_to_na(rb.linvel()) - rate.linear) / dt;
-                rate.angular = (angular_momentum(rb) - rate.angular) / dt;
+    /// Adds the physics step just taken to the touch window.
+    pub(super) fn accumulate_touch(&mut self) {
+        let mut window = std::mem::take(&mut self.touch_window);
+        window.steps += 1;
+        let fingers = self.gripper.as_ref().map_or(&[][..], |g| &g.finger_links);
+        for (finger, sum) in fingers.iter().zip(window.fingers.iter_mut()) {
+            for &(collider, link) in &self.robot_colliders {
+                if link == *finger {
+                    sum.0 += self.visit_contact_forces(collider, |_| false, |_, f| sum.1 += f);
+                }
             }
         }
+        let (force, moment) = (&mut window.contact_force, &mut window.contact_moment);
+        let hand = self
+            .robot_colliders
+            .iter()
+            .filter_map(|&(c, l)| self.hand_links.contains(&l).then_some(c));
+        let attached = self
+            .attachments
+            .iter()
+            .filter_map(|(o, _)| self.objects.get(o.0).map(|o| o.collider));
+        for collider in hand.chain(attached) {
+            self.visit_contact_forces(
+                collider,
+                |other| self.in_hand_subtree(other),
+                |p, f| {
+                    *force += f;
+                    *moment += p.cross(&f);
+                },
+            );
+        }
+        let span = window.steps as f64 * self.config.physics.solver.dt;
+        for rate in &mut window.bodies {
+            if let Some(rb) = self.world.bodies.get(rate.body) {
+                rate.acceleration = (vec_to_na(rb.linvel()) - rate.velocity) / span;
+                rate.momentum_rate = (angular_momentum(rb) - rate.momentum) / span;
+            }
+        }
+        self.touch_window = window;
     }
 
     /// Calls `visit(point, force)` for every contact of `collider` in the last physics step
@@ -222,33 +306,29 @@ impl Simulation {
         normal_force
     }
 
-    /// Contact forces on each finger in the last physics step (see [`FingerTouch`]); zeros
-    /// without a gripper or before the first step.
+    /// Contact forces on each finger, means over the last control step (see [`FingerTouch`]
+    /// and the module's notes); zeros without a gripper or before the first step.
     pub fn finger_touch(&self) -> [FingerTouch; 2] {
-        let mut out = [FingerTouch::default(); 2];
-        let fingers = self.gripper.as_ref().map_or(&[][..], |g| &g.finger_links);
-        for (finger, touch) in fingers.iter().zip(out.iter_mut()) {
-            for &(collider, link) in &self.robot_colliders {
-                if link != *finger {
-                    continue;
-                }
-                touch.normal_force +=
-                    self.visit_contact_forces(collider, |_| false, |_, f| touch.force += f);
-            }
-        }
-        out
+        let w = &self.touch_window;
+        let n = w.steps.max(1) as f64;
+        w.fingers.map(|(normal, force)| FingerTouch {
+            normal_force: normal / n,
+            force: force / n,
+        })
     }
 
     /// The wrist force-torque reading: the wrench the hand subtree (the gripper's hand link,
     /// the links below it, the fingers, and any object [`Simulation::attach`]ed to the hand)
-    /// exerts on the arm, by Newton-Euler on the subtree over the last physics step:
+    /// exerts on the arm, by Newton-Euler on the subtree over the touch window (the last
+    /// control step, see [`Simulation::begin_touch_window`]):
     ///
     /// `F = sum_i m_i (g - a_i) + sum_c F_c`,
     /// `T = sum_i [(c_i - o) x m_i (g - a_i) - dL_i/dt] + sum_c (p_c - o) x F_c`,
     ///
-    /// with `m_i`, `c_i`, `a_i`, `dL_i/dt` each body's mass, centre of mass, its acceleration
-    /// and the rate of its angular momentum over the last step, `F_c` the contact forces on
-    /// the subtree from outside it (at points `p_c`) and `o` the hand frame's origin (the
+    /// with `m_i`, `c_i`, `a_i`, `dL_i/dt` each body's mass, centre of mass, its mean
+    /// acceleration and rate of angular momentum over the window, `F_c` the mean contact
+    /// forces on the subtree from outside it (at points `p_c`) and `o` the hand frame's
+    /// origin (the
     /// flange). Both are returned in the hand frame: a still, empty hand reads its weight,
     /// pointing down (the world's `-z` expressed in the hand frame). Zero without a gripper.
     pub fn wrist_wrench(&self) -> Wrench {
@@ -267,32 +347,19 @@ impl Simulation {
                 continue;
             };
             let mass = rb.mass_properties().local_mprops.mass() as f64;
-            let rate = self.hand_motion.iter().find(|r| r.body == body);
+            let rate = self.touch_window.bodies.iter().find(|r| r.body == body);
             let (a, dl) = rate.map_or((Vector3::zeros(), Vector3::zeros()), |r| {
-                (r.linear, r.angular)
+                (r.acceleration, r.momentum_rate)
             });
             let f = mass * (g - a);
             force += f;
             torque += (vec_to_na(rb.center_of_mass()) - origin).cross(&f) - dl;
         }
-        let colliders = self
-            .robot_colliders
-            .iter()
-            .filter_map(|&(c, l)| self.hand_links.contains(&l).then_some(c));
-        let attached = self
-            .attachments
-            .iter()
-            .filter_map(|(o, _)| self.objects.get(o.0).map(|o| o.collider));
-        for collider in colliders.chain(attached) {
-            self.visit_contact_forces(
-                collider,
-                |other| self.in_hand_subtree(other),
-                |p, f| {
-                    force += f;
-                    torque += (p - origin).cross(&f);
-                },
-            );
-        }
+        let w = &self.touch_window;
+        let n = w.steps.max(1) as f64;
+        force += w.contact_force / n;
+        // Moments about the world origin, moved to the hand's: sum (p - o) x F.
+        torque += (w.contact_moment - origin.cross(&w.contact_force)) / n;
         let to_hand = rot_to_na(*hand_rb.rotation()).inverse();
         Wrench {
             force: to_hand * force,
