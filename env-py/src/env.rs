@@ -477,7 +477,8 @@ impl NativeEnv {
         Ok(dict)
     }
 
-    /// What the hand felt in the last physics step (`Simulation::touch`):
+    /// What the hand felt over the last control step (`Simulation::touch`: means over its
+    /// physics steps):
     /// `finger_normal_forces` (2, N), `finger_forces` (2 x 3, N, world frame),
     /// `wrist_force` (N) and `wrist_torque` (N m, about the hand origin), both in the hand
     /// frame, the wrench the hand subtree exerts on the arm; and `hand_mass` (kg), the

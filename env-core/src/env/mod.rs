@@ -276,7 +276,7 @@ impl PandaEnv {
         &self.sim
     }
 
-    /// What the hand feels after the last physics step: contact forces on each finger and the
+    /// What the hand felt over the last control step: contact forces on each finger and the
     /// wrist's force-torque reading ([`Simulation::touch`]; the `touch` observation entry is
     /// its [`TouchReading::observation`]).
     pub fn touch(&self) -> TouchReading {

@@ -20,8 +20,8 @@ use rapier3d::utils::OrthonormalBasis;
 use super::convert::{rot_to_na, vec_to_na};
 use super::Simulation;
 
-/// Contact forces on one finger in the last physics step, over all its contacts (objects,
-/// floor, platform, other links).
+/// Contact forces on one finger, means over the last control step, over all its contacts
+/// (objects, floor, platform, other links).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FingerTouch {
     /// Sum of the normal contact forces' magnitudes (N, >= 0).

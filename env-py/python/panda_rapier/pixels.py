@@ -85,7 +85,7 @@ OBS_MODES = (
 #: The suffix that adds the hand's touch reading to the dict (``"state+touch"``,
 #: ``"rgb+touch"``, ``"proprio+rgbd+touch"``: any mode of :data:`OBS_MODES` but ``"flat"``):
 #: a float32 ``(14,)`` entry under :data:`TOUCH_KEY`, laid out as :data:`TOUCH_LAYOUT` says,
-#: read after every step from the last physics step's contacts (``Robot.touch``).
+#: the mean over each control step of the contacts and the hand's motion (``Robot.touch``).
 TOUCH_SUFFIX = "+touch"
 
 #: The observation key of the touch entry.

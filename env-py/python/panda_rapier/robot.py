@@ -176,8 +176,8 @@ class Robot:
         return dict(self._native.inverse_kinematics(target, quaternion, start, int(max_iterations)))
 
     def touch(self) -> dict[str, Any]:
-        """What the hand felt in the last physics step, from its contact impulses (forces are
-        the step's mean, N):
+        """What the hand felt over the last control step (or the last ``step_simulation``
+        call's steps), from its contact impulses: means over its physics steps, in N:
 
         - ``finger_normal_forces``: each finger's summed normal contact force (N, 2 values;
           the driving joint's finger first), over all its contacts (objects, floor, platform).
@@ -185,7 +185,7 @@ class Robot:
           (N, world frame, ``(2, 3)``).
         - ``wrist_force`` (N) and ``wrist_torque`` (N m): the wrist force-torque reading, the
           wrench the hand, its fingers and what they hold exert on the arm (Newton-Euler on
-          the hand subtree over the last step: weight, inertia and outside contacts), in the
+          the hand subtree over those steps: weight, inertia and outside contacts), in the
           hand frame, the torque about the hand frame's origin (the flange). A still, empty
           hand reads its own weight, pointing down.
         - ``hand_mass``: the mass of that subtree (kg; attached objects included).
