@@ -38,15 +38,15 @@ pub use error::{Error, Result};
 pub use kinematics::{pointing_down, IkOptions, IkReport, IkSolution, IkWorkspace};
 pub use model::{JointInfo, JointType, LinkInfo, Mimic, RobotModel, Tcp};
 pub use physics::{
-    BodyState, JointControl, JointState, LinkState, ObjectContacts, ObjectId, ObjectShape,
-    ObjectSpec, ObjectTouch, Scene, ShapePart, SimSnapshot, Simulation, VisualPrimitive,
-    VisualShape, VisualTag,
+    BodyState, FingerTouch, JointControl, JointState, LinkState, ObjectContacts, ObjectId,
+    ObjectShape, ObjectSpec, ObjectTouch, Scene, ShapePart, SimSnapshot, Simulation, TouchReading,
+    VisualPrimitive, VisualShape, VisualTag, Wrench,
 };
 pub use robot::panda::READY as PANDA_READY;
 #[allow(deprecated)]
 pub use robot::Robot;
 pub use robot::{Gripper, RobotSpec};
-pub use sensor::Sensor;
+pub use sensor::{Sensor, SensorChain, TouchSensor};
 pub use task::{ObservationLayout, ResetOptions, RewardType, StepInfo, Task, TaskKind, Transition};
 pub use vector::{AutoresetMode, PandaVecEnv};
 

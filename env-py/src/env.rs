@@ -340,10 +340,12 @@ impl NativeEnv {
     }
 
     /// Advances the physics by `steps` solver steps with the current joint controls, then
-    /// refreshes the observation (the episode clock does not move).
+    /// refreshes the observation (the episode clock does not move); the touch reading is the
+    /// mean over these steps.
     #[pyo3(signature = (steps = 1))]
     fn step_simulation(&mut self, py: Python<'_>, steps: u32) -> PyResult<()> {
         let sim = self.env.simulation_mut();
+        sim.begin_touch_window();
         detached(py, || (0..steps).for_each(|_| sim.step()))?;
         self.refreshed(py)
     }
@@ -472,6 +474,28 @@ impl NativeEnv {
         dict.set_item("orientation", [q.x, q.y, q.z, q.w])?;
         dict.set_item("linear_velocity", <[f64; 3]>::from(s.linear_velocity))?;
         dict.set_item("angular_velocity", <[f64; 3]>::from(s.angular_velocity))?;
+        Ok(dict)
+    }
+
+    /// What the hand felt over the last control step (`Simulation::touch`: means over its
+    /// physics steps):
+    /// `finger_normal_forces` (2, N), `finger_forces` (2 x 3, N, world frame),
+    /// `wrist_force` (N) and `wrist_torque` (N m, about the hand origin), both in the hand
+    /// frame, the wrench the hand subtree exerts on the arm; and `hand_mass` (kg), the
+    /// subtree's mass.
+    fn touch<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let sim = self.env.simulation();
+        let touch = sim.touch();
+        let [a, b] = touch.fingers;
+        let dict = PyDict::new(py);
+        dict.set_item("finger_normal_forces", [a.normal_force, b.normal_force])?;
+        dict.set_item(
+            "finger_forces",
+            [<[f64; 3]>::from(a.force), <[f64; 3]>::from(b.force)],
+        )?;
+        dict.set_item("wrist_force", <[f64; 3]>::from(touch.wrist.force))?;
+        dict.set_item("wrist_torque", <[f64; 3]>::from(touch.wrist.torque))?;
+        dict.set_item("hand_mass", sim.hand_subtree_mass())?;
         Ok(dict)
     }
 }

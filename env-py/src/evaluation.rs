@@ -10,7 +10,7 @@ use pyo3::types::PyDict;
 use crate::convert::contiguous;
 use crate::env::parse_config;
 use crate::errors::{detached, invalid, to_py, ErrorClass};
-use crate::sensors::{camera_sensors, image_rows};
+use crate::sensors::{image_rows, observation_sensors};
 
 /// An evaluation in progress (see `panda_rapier.evaluation.evaluate`).
 #[pyclass(module = "panda_rapier._native", name = "Evaluation")]
@@ -93,9 +93,10 @@ impl NativeEvaluation {
         serde_json::to_string(self.evaluation.envs().config()).unwrap_or_default()
     }
 
-    /// Gives the environments observation cameras (as `PandaVecEnv.set_cameras`).
-    fn set_cameras(&mut self, py: Python<'_>, cameras_json: &str) -> PyResult<()> {
-        let sensors = camera_sensors(py, cameras_json, self.evaluation.num_envs())?;
+    /// Gives the environments observation cameras and touch (as `PandaVecEnv.set_cameras`).
+    #[pyo3(signature = (cameras_json, touch = false))]
+    fn set_cameras(&mut self, py: Python<'_>, cameras_json: &str, touch: bool) -> PyResult<()> {
+        let sensors = observation_sensors(py, cameras_json, touch, self.evaluation.num_envs())?;
         let evaluation = &mut self.evaluation;
         detached(py, || evaluation.set_sensors(sensors))?.map_err(|e| to_py(py, e))
     }

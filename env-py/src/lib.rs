@@ -174,5 +174,10 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<render::NativeRenderer>()?;
     m.add_class::<render::NativeCameras>()?;
     render::add_defaults(m)?;
+    // The `touch` observation entry's layout: (name, start, count) of each part.
+    m.add(
+        "TOUCH_LAYOUT",
+        panda_rapier_core::TouchReading::LAYOUT.to_vec(),
+    )?;
     Ok(())
 }

@@ -1,16 +1,17 @@
 //! `Renderer`: the CPU renderer, drawing a `PandaEnv` or one environment of a
-//! `PandaVecEnv` or of a `Evaluation` into an HxWx3 uint8 array; `Cameras`: the image
-//! observations of one `PandaEnv` (a `PandaVecEnv` runs its own, see `set_cameras`).
+//! `PandaVecEnv` or of a `Evaluation` into an HxWx3 uint8 array; `Cameras`: the image (and
+//! touch) observations of one `PandaEnv` (a `PandaVecEnv` runs its own, see `set_cameras`).
 
 use numpy::ndarray::Array3;
 use numpy::{IntoPyArray, PyArray1, PyArray3};
-use panda_rapier_core::{PandaEnv, Sensor};
+use panda_rapier_core::{PandaEnv, Sensor, TouchReading, TouchSensor};
 use panda_rapier_render::{Cameras, RenderConfig, Renderer};
 use pyo3::prelude::*;
 
 use crate::env::NativeEnv;
 use crate::errors::{detached, to_py};
 use crate::evaluation::NativeEvaluation;
+use crate::sensors::{observation_sensor, parse_cameras};
 use crate::vector::NativeVecEnv;
 
 /// The default observation camera (`CameraConfig::OBSERVATION`, the camera a policy that sees
@@ -134,46 +135,78 @@ impl NativeRenderer {
     }
 }
 
-/// The observation cameras of one environment: their entries (colour, depth, segmentation,
-/// point clouds), one after the other, as one uint8 array of their bytes (the same bytes a
-/// `PandaVecEnv` with `set_cameras` gives its environments).
+/// The observation sensors of one environment: the cameras' entries (colour, depth,
+/// segmentation, point clouds), then the `touch` entry if asked for, one after the other, as
+/// one uint8 array of their bytes (the same bytes a `PandaVecEnv` with `set_cameras` gives its
+/// environments).
 #[pyclass(module = "panda_rapier._native", name = "Cameras")]
 pub struct NativeCameras {
-    cameras: Cameras,
+    cameras: Option<Cameras>,
+    touch: bool,
+    sensor: Option<Box<dyn Sensor>>,
+}
+
+/// The `touch` entry's description: key, shape, element type and value bounds.
+fn touch_entry() -> (String, Vec<usize>, &'static str, (f64, f64)) {
+    (
+        TouchSensor::KEY.to_owned(),
+        vec![TouchReading::LEN],
+        "float32",
+        (-TouchReading::BOUND, TouchReading::BOUND),
+    )
 }
 
 #[pymethods]
 impl NativeCameras {
     /// From a JSON list of `{"key": ..., "render": {"width", "height", "camera", "show_goal"},
-    /// "modalities": [...], "points": ..., "points_frame": ...}` (the last three optional).
+    /// "modalities": [...], "points": ..., "points_frame": ...}` (the last three optional;
+    /// `"[]"` for no camera) and whether the `touch` entry follows.
     #[new]
-    fn new(py: Python<'_>, cameras_json: &str) -> PyResult<Self> {
-        let cameras = Cameras::from_json(cameras_json).map_err(|e| to_py(py, e))?;
-        Ok(Self { cameras })
+    #[pyo3(signature = (cameras_json, touch = false))]
+    fn new(py: Python<'_>, cameras_json: &str, touch: bool) -> PyResult<Self> {
+        let cameras = parse_cameras(py, cameras_json)?;
+        let sensor = observation_sensor(cameras.as_ref(), touch);
+        Ok(Self {
+            cameras,
+            touch,
+            sensor,
+        })
     }
 
     /// The observation keys of the entries, in order.
     #[getter]
     fn keys(&self) -> Vec<String> {
-        self.cameras.keys()
+        let mut keys = self.cameras.as_ref().map_or(Vec::new(), |c| c.keys());
+        keys.extend(self.touch.then(|| touch_entry().0));
+        keys
     }
 
     /// Each entry's shape (`(height, width, 3)` for a colour image), in order.
     #[getter]
     fn shapes(&self) -> Vec<Vec<usize>> {
-        self.cameras.shapes()
+        let mut shapes = self.cameras.as_ref().map_or(Vec::new(), |c| c.shapes());
+        shapes.extend(self.touch.then(|| touch_entry().1));
+        shapes
     }
 
     /// Each entry's element type, `"uint8"` or `"float32"` (little-endian), in order.
     #[getter]
     fn dtypes(&self) -> Vec<&'static str> {
-        self.cameras.entries().iter().map(|e| e.dtype).collect()
+        let mut dtypes: Vec<&'static str> = self.cameras.as_ref().map_or(Vec::new(), |c| {
+            c.entries().iter().map(|e| e.dtype).collect()
+        });
+        dtypes.extend(self.touch.then(|| touch_entry().2));
+        dtypes
     }
 
     /// Each entry's `(low, high)` value bounds, in order.
     #[getter]
     fn bounds(&self) -> Vec<(f64, f64)> {
-        self.cameras.entries().iter().map(|e| e.bounds).collect()
+        let mut bounds: Vec<(f64, f64)> = self.cameras.as_ref().map_or(Vec::new(), |c| {
+            c.entries().iter().map(|e| e.bounds).collect()
+        });
+        bounds.extend(self.touch.then(|| touch_entry().3));
+        bounds
     }
 
     /// The entries of the environment's current state, as their bytes (all in order).
@@ -182,10 +215,12 @@ impl NativeCameras {
         py: Python<'py>,
         env: PyRef<'py, NativeEnv>,
     ) -> PyResult<Bound<'py, PyArray1<u8>>> {
-        let cameras = &mut self.cameras;
         let env = &env.env;
-        let mut out = vec![0; cameras.len()];
-        detached(py, || cameras.observe(env, &mut out))?;
+        let Some(sensor) = self.sensor.as_mut() else {
+            return Ok(PyArray1::from_vec(py, Vec::new()));
+        };
+        let mut out = vec![0; sensor.len()];
+        detached(py, || sensor.observe(env, &mut out))?;
         Ok(PyArray1::from_vec(py, out))
     }
 }

@@ -1,26 +1,55 @@
-//! Image observations of the vector environments: one `Cameras` sensor per environment, and
-//! the sensors' bytes as a numpy array. Used by `vector.rs` and `evaluation.rs`; depends on
-//! neither (nor on `render.rs`, which draws for people).
+//! Sensor observations of the vector environments: one sensor per environment (the cameras'
+//! entries, then the `touch` entry when asked for), and the sensors' bytes as a numpy array.
+//! Used by `vector.rs`, `evaluation.rs` and `render.rs` (`Cameras`, a single environment's).
 
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
-use panda_rapier_core::{PandaVecEnv, Sensor};
+use panda_rapier_core::{PandaVecEnv, Sensor, SensorChain, TouchSensor};
 use panda_rapier_render::Cameras;
 use pyo3::prelude::*;
 
 use crate::errors::{invalid, to_py, ErrorClass};
 
-/// One `Cameras` sensor per environment from `cameras_json` (none for `"[]"`).
-pub(crate) fn camera_sensors(
+/// The cameras of `cameras_json` (none for `"[]"`).
+pub(crate) fn parse_cameras(py: Python<'_>, cameras_json: &str) -> PyResult<Option<Cameras>> {
+    if cameras_json.trim() == "[]" {
+        return Ok(None);
+    }
+    Cameras::from_json(cameras_json)
+        .map(Some)
+        .map_err(|e| to_py(py, e))
+}
+
+/// One environment's observation sensor: the cameras' entries, then the touch entry if
+/// `touch`; `None` for neither.
+pub(crate) fn observation_sensor(
+    cameras: Option<&Cameras>,
+    touch: bool,
+) -> Option<Box<dyn Sensor>> {
+    let mut parts: Vec<Box<dyn Sensor>> = Vec::new();
+    if let Some(cameras) = cameras {
+        parts.push(Box::new(cameras.clone()));
+    }
+    if touch {
+        parts.push(Box::new(TouchSensor));
+    }
+    match parts.len() {
+        0 => None,
+        1 => parts.pop(),
+        _ => Some(Box::new(SensorChain(parts))),
+    }
+}
+
+/// One observation sensor per environment from `cameras_json` and `touch` (none for `"[]"`
+/// without touch).
+pub(crate) fn observation_sensors(
     py: Python<'_>,
     cameras_json: &str,
+    touch: bool,
     num_envs: usize,
 ) -> PyResult<Vec<Box<dyn Sensor>>> {
-    if cameras_json.trim() == "[]" {
-        return Ok(Vec::new());
-    }
-    let cameras = Cameras::from_json(cameras_json).map_err(|e| to_py(py, e))?;
+    let cameras = parse_cameras(py, cameras_json)?;
     Ok((0..num_envs)
-        .map(|_| Box::new(cameras.clone()) as Box<dyn Sensor>)
+        .filter_map(|_| observation_sensor(cameras.as_ref(), touch))
         .collect())
 }
 

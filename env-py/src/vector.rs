@@ -9,7 +9,7 @@ use pyo3::types::PyDict;
 use crate::convert::{compute_reward, contiguous, info_columns, info_dicts, ContextColumns};
 use crate::env::parse_config;
 use crate::errors::{detached, invalid, to_py, ErrorClass};
-use crate::sensors::{camera_sensors, image_rows};
+use crate::sensors::{image_rows, observation_sensors};
 
 /// N environments stepped in parallel.
 #[pyclass(module = "panda_rapier._native", name = "PandaVecEnv")]
@@ -156,10 +156,12 @@ impl NativeVecEnv {
     }
 
     /// Gives every environment the observation cameras of `cameras_json` (a JSON list of
-    /// `{"key": ..., "render": {...}}`; `"[]"` removes them): their images are drawn on the
-    /// environments' threads after every step and reset, see `images`.
-    fn set_cameras(&mut self, py: Python<'_>, cameras_json: &str) -> PyResult<()> {
-        let sensors = camera_sensors(py, cameras_json, self.vec.num_envs())?;
+    /// `{"key": ..., "render": {...}}`; `"[]"` removes them) and, with `touch`, the `touch`
+    /// entry after them: drawn and read on the environments' threads after every step and
+    /// reset, see `images`.
+    #[pyo3(signature = (cameras_json, touch = false))]
+    fn set_cameras(&mut self, py: Python<'_>, cameras_json: &str, touch: bool) -> PyResult<()> {
+        let sensors = observation_sensors(py, cameras_json, touch, self.vec.num_envs())?;
         let vec = &mut self.vec;
         detached(py, || vec.set_sensors(sensors))?.map_err(|e| to_py(py, e))
     }

@@ -196,6 +196,8 @@ impl Controller {
     /// period away (which drew peaks of 2 m/s and 40 m/s^2 at the hand and shook the cube
     /// loose).
     pub fn drive(&mut self, sim: &mut Simulation, plan: &Plan) {
+        // The touch reading is the control step's mean.
+        sim.begin_touch_window();
         if self.osc.is_some() {
             return self.drive_osc(sim, plan);
         }

@@ -21,7 +21,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::error::{Error, Result};
-use crate::physics::{SimSnapshot, Simulation};
+use crate::physics::{SimSnapshot, Simulation, TouchReading};
 use crate::robot::RobotSpec;
 use crate::task::episode::{EpisodeStart, ResetOptions, StepInfo, Transition};
 use crate::task::observation::{
@@ -274,6 +274,13 @@ impl PandaEnv {
     /// The simulation, for introspection (robot model, link states, kinematics).
     pub fn simulation(&self) -> &Simulation {
         &self.sim
+    }
+
+    /// What the hand felt over the last control step: contact forces on each finger and the
+    /// wrist's force-torque reading ([`Simulation::touch`]; the `touch` observation entry is
+    /// its [`TouchReading::observation`]).
+    pub fn touch(&self) -> TouchReading {
+        self.sim.touch()
     }
 
     /// The simulation, to drive the robot directly; the next [`PandaEnv::step`] overrides the

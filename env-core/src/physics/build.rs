@@ -16,6 +16,7 @@ use rapier3d_urdf::{
 
 use super::convert::{pose_from_na, vec_from_array};
 use super::kinematic_arm::KinematicArm;
+use super::touch::TouchWindow;
 use super::{
     Arm, DofSlot, JointControl, Scene, SceneObject, Simulation, ARM_GROUP, OBJECT_GROUP,
     PROXIMAL_GROUP, STATIC_GROUP,
@@ -233,6 +234,11 @@ impl Simulation {
             }
         }
 
+        let hand_links = gripper.as_ref().map_or(Vec::new(), |g| {
+            subtree(&model, model.joints()[g.joint].parent_link_index)
+        });
+        // Room for the hand's bodies and a few attached objects: stepping never allocates.
+        let hand_capacity = hand_links.len() + 4;
         let controls = vec![JointControl::position(0.0); model.num_dofs()];
         let q0 = home_configuration(&config, &model)?;
         let mut sim = Self {
@@ -256,8 +262,18 @@ impl Simulation {
             steps: 0,
             torques_applied: false,
             attachments: Vec::new(),
+            hand_links,
+            touch_window: TouchWindow::with_capacity(hand_capacity),
         };
+        // rapier fills in mass properties at the first step; the wrist reading weighs the hand
+        // from the start (the same values the first step computes, so nothing else changes).
+        for &link in &sim.hand_links {
+            if let Some(rb) = sim.link_bodies[link].and_then(|b| sim.world.bodies.get_mut(b)) {
+                rb.recompute_mass_properties_from_colliders(&sim.world.colliders);
+            }
+        }
         sim.set_joint_positions(&q0)?;
+        sim.begin_touch_window();
         Ok(sim)
     }
 }
@@ -550,4 +566,20 @@ fn proximal_links(model: &RobotModel) -> Vec<usize> {
         })
         .map(|l| l.index)
         .collect()
+}
+
+/// `root` and every link below it, `root` first.
+fn subtree(model: &RobotModel, root: usize) -> Vec<usize> {
+    let mut links = vec![root];
+    let mut i = 0;
+    while i < links.len() {
+        let parent = links[i];
+        for joint in model.joints() {
+            if joint.parent_link_index == parent && !links.contains(&joint.child_link_index) {
+                links.push(joint.child_link_index);
+            }
+        }
+        i += 1;
+    }
+    links
 }

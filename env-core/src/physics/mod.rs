@@ -14,6 +14,7 @@
 //! | control | `control.rs` | [`JointControl`]; joint commands, the gripper, teleporting the robot |
 //! | state | `state.rs` | [`BodyState`], [`JointState`], [`LinkState`]; joints, links, TCP, objects |
 //! | contacts | `contacts.rs` | [`ObjectContacts`], [`ObjectTouch`]: what touches an object |
+//! | touch | `touch.rs` | [`TouchReading`], [`FingerTouch`], [`Wrench`]: finger contact forces, the wrist's force-torque reading |
 //! | visuals | `visuals.rs` | [`VisualPrimitive`]: every collider's shape and pose, for renderers |
 //! | snapshots | `snapshot.rs` | [`SimSnapshot`]: save and restore the whole state |
 //! | kinematic arm | `kinematic_arm.rs` | the placed arm of [`crate::ArmFidelity::Kinematic`] |
@@ -30,6 +31,7 @@ mod scene;
 mod shape;
 mod snapshot;
 mod state;
+mod touch;
 mod visuals;
 
 use nalgebra::Isometry3;
@@ -50,6 +52,7 @@ pub use scene::{ObjectId, ObjectSpec, Scene};
 pub use shape::{ObjectShape, ShapePart, MAX_FACE_CORNERS};
 pub use snapshot::SimSnapshot;
 pub use state::{BodyState, JointState, LinkState};
+pub use touch::{FingerTouch, TouchReading, Wrench};
 pub use visuals::{VisualPrimitive, VisualShape, VisualTag};
 
 const STATIC_GROUP: Group = Group::GROUP_1;
@@ -141,6 +144,12 @@ pub struct Simulation {
     torques_applied: bool,
     /// Objects held to the hand by a fixed joint ([`Simulation::attach`]), with the joint.
     attachments: Vec<(ObjectId, ImpulseJointHandle)>,
+    /// The gripper's hand link first, then every link below it (empty without a gripper):
+    /// the subtree the wrist reading weighs.
+    hand_links: Vec<usize>,
+    /// What the touch reading is computed from: the last control step's contact forces on
+    /// the hand and its motion.
+    touch_window: touch::TouchWindow,
 }
 
 impl std::fmt::Debug for Simulation {
@@ -189,23 +198,33 @@ impl Simulation {
         self.config.physics.solver.dt * self.config.substeps as f64
     }
 
-    /// Advances the world by one physics step (`solver.dt`).
+    /// Advances the world by one physics step (`solver.dt`), added to the touch reading's
+    /// window ([`Simulation::begin_touch_window`]).
     pub fn step(&mut self) {
+        self.physics_step();
+    }
+
+    /// Advances the world by one control period (`solver.substeps` physics steps); the touch
+    /// reading ([`Simulation::touch`]) then covers the period.
+    pub fn step_control(&mut self) {
+        self.begin_touch_window();
+        for _ in 0..self.config.substeps {
+            self.physics_step();
+        }
+    }
+
+    /// One physics step, added to the touch window.
+    fn physics_step(&mut self) {
+        // (`step` and `step_control` differ in the window only.)
         if matches!(self.arm, Arm::Kinematic { .. }) {
             self.advance_kinematic_arm();
         } else {
             self.apply_joint_torques();
         }
         self.world.step();
+        self.accumulate_touch();
         self.time += self.config.physics.solver.dt;
         self.steps += 1;
-    }
-
-    /// Advances the world by one control period (`solver.substeps` physics steps).
-    pub fn step_control(&mut self) {
-        for _ in 0..self.config.substeps {
-            self.step();
-        }
     }
 
     /// The largest linear (m/s) and angular (rad/s) speed of any body; NaN propagates, so a

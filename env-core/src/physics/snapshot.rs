@@ -5,6 +5,7 @@ use rapier3d::dynamics::{
 };
 use rapier3d::geometry::{BroadPhaseBvh, ColliderSet, NarrowPhase};
 
+use super::touch::TouchWindow;
 use super::{Arm, JointControl, ObjectId, Scene, Simulation};
 use crate::config::SimConfig;
 use crate::error::{Error, Result};
@@ -27,6 +28,7 @@ pub struct SimSnapshot {
     controls: Vec<JointControl>,
     torques_applied: bool,
     attachments: Vec<(ObjectId, ImpulseJointHandle)>,
+    touch_window: TouchWindow,
     time: f64,
     steps: u64,
 }
@@ -57,6 +59,7 @@ impl Simulation {
             controls: self.controls.clone(),
             torques_applied: self.torques_applied,
             attachments: self.attachments.clone(),
+            touch_window: self.touch_window.clone(),
             time: self.time,
             steps: self.steps,
         }
@@ -86,6 +89,8 @@ impl Simulation {
         self.controls.clone_from(&snapshot.controls);
         self.torques_applied = snapshot.torques_applied;
         self.attachments.clone_from(&snapshot.attachments);
+        // Keeps this buffer's capacity: stepping after a restore does not allocate.
+        self.touch_window.copy_from(&snapshot.touch_window);
         self.time = snapshot.time;
         self.steps = snapshot.steps;
         Ok(())

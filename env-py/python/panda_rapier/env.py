@@ -88,6 +88,10 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
     (``<key>_points``) come with modes such as ``"depth"``, ``"rgbd"``, ``"proprio+rgbd"`` or
     ``"state+segmentation+points"`` (:data:`panda_rapier.pixels.MODALITIES`; the guide's
     *Depth, segmentation and point clouds*).
+    Any mode but ``"flat"`` followed by ``"+touch"`` (``"state+touch"``,
+    ``"proprio+rgb+touch"``) adds ``touch``: the hand's finger contact forces and wrist
+    force-torque reading as float32 ``(14,)`` (:data:`panda_rapier.pixels.TOUCH_LAYOUT`;
+    the same values as :meth:`Robot.touch <panda_rapier.Robot.touch>`; the guide's *Touch*).
 
     ## Action Space
     ``Box(-1, 1, (4,), float32)`` with ``control_mode="ee"`` (default): TCP displacement x, y, z
@@ -202,7 +206,11 @@ class PandaEnv(_common.NativeBacked, gym.Env[dict[str, np.ndarray], np.ndarray],
             visual_randomization,
             config_json=self._native.config_json(),
         )
-        self._cameras = _native.Cameras(self._obs.cameras_json) if self._obs.has_images else None
+        self._cameras = (
+            _native.Cameras(self._obs.cameras_json, self._obs.touch)
+            if self._obs.has_sensors
+            else None
+        )
         # gymnasium types a Dict space's elements as dict[str, Space], not the observations.
         self.observation_space = cast("gym.spaces.Space[dict[str, np.ndarray]]", self._obs.space())
         self.action_space = _common.action_space(self._native.action_dim)

@@ -1,7 +1,8 @@
 """Image observations (``obs_mode="rgb"``, ``"state+rgb"``, ``"proprio+rgb"``, and depth,
 segmentation and point clouds: ``"depth"``, ``"rgbd"``, ``"proprio+rgb+segmentation"``,
 ...): what the cameras of the CPU renderer see, in the observation dict, for the single,
-vector and stable-baselines3 environments.
+vector and stable-baselines3 environments; and touch (``"state+touch"``,
+``"proprio+rgb+touch"``, ...: :data:`TOUCH_SUFFIX`), the hand's contact forces.
 
 Every environment class reads its observation layout from one :class:`ObservationSpec`: the
 state keys the task's schema gives, plus each camera's entries: a uint8 ``(height, width, 3)``
@@ -80,6 +81,27 @@ OBS_MODES = (
     "flat",
     *(mode for mode in _IMAGE_MODES if mode not in ("rgb", "state+rgb", "proprio+rgb")),
 )
+
+#: The suffix that adds the hand's touch reading to the dict (``"state+touch"``,
+#: ``"rgb+touch"``, ``"proprio+rgbd+touch"``: any mode of :data:`OBS_MODES` but ``"flat"``):
+#: a float32 ``(14,)`` entry under :data:`TOUCH_KEY`, laid out as :data:`TOUCH_LAYOUT` says,
+#: the mean over each control step of the contacts and the hand's motion (``Robot.touch``).
+TOUCH_SUFFIX = "+touch"
+
+#: The observation key of the touch entry.
+TOUCH_KEY = "touch"
+
+#: Where each part of the touch entry sits (defined once, in Rust: ``TouchReading::LAYOUT``):
+#: ``finger_normal_forces`` (2: each finger's summed normal contact force, N),
+#: ``finger_forces`` (6: each finger's summed contact force vector, normal and friction, N,
+#: world frame, first finger first), ``wrist_force`` (3, N) and ``wrist_torque`` (3, N m):
+#: the wrench the hand, its fingers and what they hold exert on the arm, in the hand frame,
+#: the torque about the hand frame's origin (the flange); a still, empty hand reads its
+#: weight, pointing down. Values are clamped to ``+-1000``.
+TOUCH_LAYOUT: dict[str, slice] = {
+    str(name): slice(int(start), int(start) + int(count))
+    for name, start, count in _native.TOUCH_LAYOUT
+}
 
 #: Depth images' value where nothing nearer is drawn (m): depths lie in ``[0, DEPTH_FAR]``.
 DEPTH_FAR = float(_native.DEPTH_FAR)
@@ -185,7 +207,7 @@ class ObservationSpec:
 
     mode: str
     schema: _common.Schema
-    #: Camera entry keys, in the order of the native bytes.
+    #: Sensor entry keys (each camera's, then ``touch``), in the order of the native bytes.
     image_keys: tuple[str, ...] = ()
     #: The shape of each entry (``(height, width, 3)`` for a colour image).
     image_shapes: tuple[tuple[int, ...], ...] = ()
@@ -200,11 +222,19 @@ class ObservationSpec:
     #: segmentation): ``background``, ``floor``, ``platform``, ``goal``, ``object:<name>``,
     #: ``link:<name>``.
     segmentation_ids: tuple[tuple[int, str], ...] = ()
+    #: Whether the dict holds the touch entry (the last of the native entries).
+    touch: bool = False
+
+    @property
+    def base_mode(self) -> str:
+        """The mode without :data:`TOUCH_SUFFIX`."""
+        return self.mode.removesuffix(TOUCH_SUFFIX) if self.touch else self.mode
 
     @property
     def state_keys(self) -> tuple[str, ...]:
         """The state entries of the dict."""
-        prefix = _IMAGE_MODES[self.mode][0] if self.mode in _IMAGE_MODES else "state"
+        mode = self.base_mode
+        prefix = _IMAGE_MODES[mode][0] if mode in _IMAGE_MODES else "state"
         if prefix == "":
             return ("achieved_goal", "desired_goal")
         if prefix == "proprio":
@@ -219,6 +249,11 @@ class ObservationSpec:
     @property
     def has_images(self) -> bool:
         """Whether observations carry images."""
+        return self.cameras_json.strip() != "[]"
+
+    @property
+    def has_sensors(self) -> bool:
+        """Whether observations carry entries the native sensors write (images, touch)."""
         return bool(self.image_keys)
 
     def space(self) -> spaces.Dict | spaces.Box:
@@ -329,21 +364,36 @@ def observation_spec(
     ``visual_randomization`` (``True`` for :data:`VISUAL_RANDOMIZATION`'s ranges, or a dict of
     some of them; ``None`` or ``False``: off) randomises every camera's pictures, seeded per
     episode (see :data:`VISUAL_RANDOMIZATION`). ``config_json`` is the environment's
-    configuration, whose scene names the segmentation ids. Bad values raise
+    configuration, whose scene names the segmentation ids. ``obs_mode`` ending in
+    :data:`TOUCH_SUFFIX` adds the ``touch`` entry. Bad values raise
     :class:`~panda_rapier.ConfigError`."""
-    if obs_mode not in OBS_MODES:
+    touch = isinstance(obs_mode, str) and obs_mode.endswith(TOUCH_SUFFIX)
+    base = obs_mode.removesuffix(TOUCH_SUFFIX) if touch else obs_mode
+    if base not in OBS_MODES or (touch and base == "flat"):
         raise ConfigError(
             "obs_mode must be 'state', 'flat', or [state+|proprio+] followed by one or more of "
             f"{', '.join(MODALITIES)} in that order, joined by '+' ('rgbd' for 'rgb+depth'): "
-            f"one of {OBS_MODES}; got {obs_mode!r}"
+            f"one of {OBS_MODES}, each but 'flat' optionally followed by {TOUCH_SUFFIX!r} for "
+            f"the hand's touch reading; got {obs_mode!r}"
         )
-    if obs_mode in ("state", "flat"):
+    if base in ("state", "flat"):
         if cameras is not None or visual_randomization not in (None, False):
             raise ConfigError(
                 "cameras and visual_randomization set the observation cameras of the image "
                 "obs_modes; for render() frames, use camera"
             )
-        return ObservationSpec(mode=obs_mode, schema=schema)
+        if not touch:
+            return ObservationSpec(mode=obs_mode, schema=schema)
+        native = _native.Cameras("[]", True)
+        return ObservationSpec(
+            mode=str(obs_mode),
+            schema=schema,
+            image_keys=tuple(native.keys),
+            image_shapes=tuple(tuple(shape) for shape in native.shapes),
+            image_dtypes=tuple(native.dtypes),
+            image_bounds=tuple((float(lo), float(hi)) for lo, hi in native.bounds),
+            touch=True,
+        )
     height, width = _image_size(image_size)
     if cameras is None:
         cameras = DEFAULT_CAMERAS
@@ -353,12 +403,13 @@ def observation_spec(
             f"{cameras!r}"
         )
     randomization = _randomization(visual_randomization)
-    modalities = _IMAGE_MODES[obs_mode][1]
+    modalities = _IMAGE_MODES[base][1]
     entries = []
     for key, options in cameras.items():
-        if not isinstance(key, str) or key in RESERVED_KEYS or not key:
+        reserved = (*RESERVED_KEYS, TOUCH_KEY) if touch else RESERVED_KEYS
+        if not isinstance(key, str) or key in reserved or not key:
             raise ConfigError(
-                f"camera keys must be non-empty strings other than {RESERVED_KEYS}, got {key!r}"
+                f"camera keys must be non-empty strings other than {reserved}, got {key!r}"
             )
         if not isinstance(options, Mapping):
             raise ConfigError(f"cameras[{key!r}] must be a dict of camera options, got {options!r}")
@@ -398,8 +449,9 @@ def observation_spec(
         )
     except ValueError as error:
         raise ConfigError(f"camera options must be finite numbers: {error}") from error
-    native = _native.Cameras(cameras_json)  # validates every camera
-    clash = set(native.keys) & set(RESERVED_KEYS)
+    native = _native.Cameras(cameras_json, touch)  # validates every camera
+    camera_keys = native.keys[:-1] if touch else native.keys
+    clash = set(camera_keys) & {*RESERVED_KEYS, *((TOUCH_KEY,) if touch else ())}
     if clash:
         raise ConfigError(f"camera entries {sorted(clash)} clash with the state keys")
     return ObservationSpec(
@@ -415,6 +467,7 @@ def observation_spec(
             if "segmentation" in modalities
             else ()
         ),
+        touch=touch,
     )
 
 

@@ -175,6 +175,32 @@ class Robot:
         start = None if q_start is None else _floats(q_start, "q_start")
         return dict(self._native.inverse_kinematics(target, quaternion, start, int(max_iterations)))
 
+    def touch(self) -> dict[str, Any]:
+        """What the hand felt over the last control step (or the last ``step_simulation``
+        call's steps), from its contact impulses: means over its physics steps, in N:
+
+        - ``finger_normal_forces``: each finger's summed normal contact force (N, 2 values;
+          the driving joint's finger first), over all its contacts (objects, floor, platform).
+        - ``finger_forces``: each finger's summed contact force vector, normal and friction
+          (N, world frame, ``(2, 3)``).
+        - ``wrist_force`` (N) and ``wrist_torque`` (N m): the wrist force-torque reading, the
+          wrench the hand, its fingers and what they hold exert on the arm (Newton-Euler on
+          the hand subtree over those steps: weight, inertia and outside contacts), in the
+          hand frame, the torque about the hand frame's origin (the flange). A still, empty
+          hand reads its own weight, pointing down.
+        - ``hand_mass``: the mass of that subtree (kg; attached objects included).
+
+        The ``obs_mode`` suffix ``"+touch"`` puts the same values in the observation
+        (:data:`panda_rapier.pixels.TOUCH_LAYOUT`)."""
+        raw = dict(self._native.touch())
+        return {
+            "finger_normal_forces": np.asarray(raw["finger_normal_forces"]),
+            "finger_forces": np.asarray(raw["finger_forces"]),
+            "wrist_force": np.asarray(raw["wrist_force"]),
+            "wrist_torque": np.asarray(raw["wrist_torque"]),
+            "hand_mass": float(raw["hand_mass"]),
+        }
+
     def object_state(self, name: str = "cube") -> dict[str, Any]:
         """World ``position``, ``orientation`` (xyzw) and velocities of the scene's object
         ``name`` (pick-and-place has one, ``"cube"``)."""

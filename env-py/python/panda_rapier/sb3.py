@@ -123,8 +123,8 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
             visual_randomization,
             config_json=self._native.config_json(),
         )
-        if self._obs.has_images:
-            self._native.set_cameras(self._obs.cameras_json)
+        if self._obs.has_sensors:
+            self._native.set_cameras(self._obs.cameras_json, self._obs.touch)
         self.spec = spec
         self._sub_envs = [_SubEnv(self, render_mode) for _ in range(int(num_envs))]
         super().__init__(
@@ -201,7 +201,7 @@ class PandaVecEnv(_common.NativeBacked, VecEnv):
         return self._observation(flat), rewards, dones, infos
 
     def _observation(self, flat: np.ndarray, which: str = "current") -> dict[str, np.ndarray]:
-        images = self._native.images(which) if self._obs.has_images else None
+        images = self._native.images(which) if self._obs.has_sensors else None
         return self._obs.assemble(flat, images)
 
     def close(self) -> None:

@@ -118,8 +118,8 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
             visual_randomization,
             config_json=self._native.config_json(),
         )
-        if self._obs.has_images:
-            self._native.set_cameras(self._obs.cameras_json)
+        if self._obs.has_sensors:
+            self._native.set_cameras(self._obs.cameras_json, self._obs.touch)
         self.single_observation_space = self._obs.space()
         self.single_action_space = _common.action_space(self._native.action_dim)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -215,7 +215,7 @@ class PandaVectorEnv(_common.NativeBacked, VectorEnv):
         return infos
 
     def _observation(self, flat: np.ndarray, which: str = "current") -> dict[str, np.ndarray]:
-        images = self._native.images(which) if self._obs.has_images else None
+        images = self._native.images(which) if self._obs.has_sensors else None
         return self._obs.assemble(flat, images)
 
     def _with_masks(self, infos: dict[str, Any]) -> dict[str, Any]:

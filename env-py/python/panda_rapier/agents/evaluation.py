@@ -239,7 +239,7 @@ def _actor(
     if isinstance(policy, RandomPolicy):
         return (lambda _flat, _images: policy.act_for_episodes(running_seeds())), "random", "random"
     if isinstance(policy, PolicyNetwork):
-        if spec.has_images:
+        if spec.has_sensors:
             raise InvalidArgumentError("a PolicyNetwork acts on state observations only")
         return (lambda flat, _images: policy.act(flat)), repr(policy), NATIVE
     predict = getattr(policy, "predict", None)
@@ -316,8 +316,8 @@ def evaluate(
     act, name, inference = _actor(
         policy, spec, lambda: [None if k is None else seed + k for k in evaluation.running()]
     )
-    if spec.has_images:
-        evaluation.set_cameras(spec.cameras_json)
+    if spec.has_sensors:
+        evaluation.set_cameras(spec.cameras_json, spec.touch)
     full_config = json.loads(evaluation.config_json())
 
     started = time.perf_counter()
@@ -325,7 +325,7 @@ def evaluate(
         recorder.capture(evaluation)
     while not evaluation.done:
         observations = evaluation.observations()
-        images = evaluation.images() if spec.has_images else None
+        images = evaluation.images() if spec.has_sensors else None
         actions = np.ascontiguousarray(act(observations, images), dtype=np.float32)
         running = evaluation.running()
         if on_step is not None:
