@@ -35,7 +35,7 @@ from typing import Any
 
 from . import __version__
 from .errors import InvalidArgumentError, PandaRapierError
-from .pixels import RANDOMIZATION_GROUPS, randomization_of
+from .pixels import DEFAULT_IMAGE_SIZE, RANDOMIZATION_GROUPS, randomization_of
 from .registration import DEFAULT_ENV_ID, ENV_IDS, task_places, variant
 
 
@@ -421,11 +421,14 @@ def _parser() -> argparse.ArgumentParser:
 
     demos = commands.add_parser(
         "demos",
-        help="record the scripted expert's episodes as a Minari dataset",
+        help="record the scripted expert's episodes as a Minari or LeRobot dataset",
         description="Runs the scripted expert for EPISODES seeded episodes (episode k with "
         "seed FIRST_SEED + k) and writes them, with every step info, the environment's spec "
         "and reference scores, as a Minari dataset under Minari's data path "
-        "(MINARI_DATASETS_PATH). Needs the demos extra (minari).",
+        "(MINARI_DATASETS_PATH; needs the demos extra, minari); or with --format lerobot as a "
+        "LeRobot dataset (format v3.0) in the new directory --root, recorded on --num-envs "
+        "environments in parallel, with an image stream per --camera (needs the lerobot "
+        "extra, Python >= 3.12).",
     )
     demos.add_argument("--env", choices=ENV_IDS, default=DEFAULT_ENV_ID)
     demos.add_argument("--episodes", type=_positive, default=1000)
@@ -444,12 +447,42 @@ def _parser() -> argparse.ArgumentParser:
     demos.add_argument(
         "--env-kwargs", nargs="*", default=[], metavar="KEY=JSON", help="environment options"
     )
+    demos.add_argument("--format", choices=("minari", "lerobot"), default="minari")
+    demos.add_argument(
+        "--root", type=Path, default=None, help="lerobot: the new directory to write into"
+    )
+    demos.add_argument(
+        "--camera",
+        action="append",
+        default=[],
+        metavar="KEY",
+        help="lerobot: an image stream from the observation camera "
+        "(panda_rapier.pixels.DEFAULT_CAMERA) under observation.images.KEY; repeatable",
+    )
+    demos.add_argument("--image-size", type=_positive, default=DEFAULT_IMAGE_SIZE)
+    demos.add_argument(
+        "--no-videos", action="store_true", help="lerobot: PNG images instead of videos"
+    )
+    demos.add_argument("--num-envs", type=_positive, default=8, help="lerobot: environments")
     demos.add_argument("--quiet", action="store_true", help="no progress bar")
     demos.set_defaults(run=_run_demos)
     return parser
 
 
 def _run_demos(args: argparse.Namespace) -> int:
+    if args.format == "lerobot":
+        return _run_lerobot_demos(args)
+    lerobot_only = [
+        flag
+        for flag, given in (
+            ("--root", args.root is not None),
+            ("--camera", bool(args.camera)),
+            ("--no-videos", args.no_videos),
+        )
+        if given
+    ]
+    if lerobot_only:
+        raise ValueError(f"{', '.join(lerobot_only)} go with --format lerobot")
     from tqdm import tqdm
 
     from .learning.demos import DEFAULT_FIRST_SEED, record
@@ -479,6 +512,47 @@ def _run_demos(args: argparse.Namespace) -> int:
         f"expert {summary.ref_max_score:.2f})"
     )
     print(f"  stored in {summary.path}; load it with minari.load_dataset({summary.dataset_id!r})")
+    return 0
+
+
+def _run_lerobot_demos(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from .learning.lerobot_dataset import record_lerobot
+    from .pixels import DEFAULT_CAMERA
+    from .seeds import DEMOS_FIRST_SEED
+
+    if args.root is None:
+        raise ValueError("--format lerobot needs --root DIR (a new directory)")
+    if args.noise:
+        raise ValueError(
+            "--noise is for --format minari; LeRobot datasets hold the expert's actions"
+        )
+    with tqdm(
+        desc="demos", unit="episode", total=args.episodes, disable=args.quiet, file=sys.stderr
+    ) as bar:
+        summary = record_lerobot(
+            args.env,
+            args.episodes,
+            args.root,
+            repo_id=args.dataset_id,
+            cameras={key: dict(DEFAULT_CAMERA) for key in args.camera} or None,
+            image_size=args.image_size,
+            use_videos=not args.no_videos,
+            num_envs=args.num_envs,
+            first_seed=DEMOS_FIRST_SEED if args.first_seed is None else args.first_seed,
+            env_kwargs=_env_kwargs(args.env_kwargs),
+            progress=lambda done: bar.update(done - bar.n),
+        )
+    print(
+        f"recorded {summary.episodes} episodes ({summary.frames} frames) of the scripted expert "
+        f"on {args.env} as the LeRobot dataset {summary.repo_id} in {summary.wall_time_s:.1f} s; "
+        f"success {summary.success_rate:.3f}"
+    )
+    print(
+        f"  stored in {summary.root}; load it with LeRobotDataset({summary.repo_id!r}, "
+        f"root={summary.root!r})"
+    )
     return 0
 
 

@@ -1,0 +1,171 @@
+"""LeRobot datasets (issue 61): the scripted expert's episodes written with LeRobot's writer,
+read back with ``lerobot.datasets.LeRobotDataset`` (frames, actions and episode boundaries as
+the environment produced them) and replayed exactly from their seeds and streams; bad input
+is a typed error. LeRobot needs Python >= 3.12: ``scripts/test`` runs this file in its own
+virtualenv with lerobot (the main suite, without it, checks the missing-extra error only).
+Seeds: 7501 to 7599 are this file's."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from panda_rapier.errors import ConfigError, InvalidArgumentError
+
+HAS_LEROBOT = importlib.util.find_spec("lerobot") is not None
+needs_lerobot = pytest.mark.skipif(not HAS_LEROBOT, reason="lerobot is not installed")
+
+ENV_ID = "panda_rapier/PickAndPlace-v0"
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
+    from panda_rapier.learning.lerobot_dataset import record_lerobot
+    from panda_rapier.pixels import DEFAULT_CAMERA
+
+    root = tmp_path_factory.mktemp("lerobot") / "pick"
+    summary = record_lerobot(
+        ENV_ID,
+        3,
+        root,
+        cameras={"front": DEFAULT_CAMERA},
+        image_size=32,
+        use_videos=False,
+        num_envs=2,
+        first_seed=7501,
+    )
+    return root, summary
+
+
+@needs_lerobot
+def test_a_dataset_reads_back_with_lerobot(recorded: tuple[Path, object]) -> None:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    root, summary = recorded
+    meta = json.loads((root / "meta" / "panda_rapier.json").read_text())
+    lengths = [e["length"] for e in meta["episodes"]]
+    assert [e["seed"] for e in meta["episodes"]] == [7501, 7502, 7503]
+    # Episodes 0 and 1 start together on environments 0 and 1; episode 2 on whichever ends first.
+    assert [e["env_index"] for e in meta["episodes"]][:2] == [0, 1]
+    assert summary.frames == sum(lengths)
+
+    dataset = LeRobotDataset(summary.repo_id, root=root)
+    assert dataset.fps == 25
+    assert len(dataset) == sum(lengths)
+    assert dataset.num_episodes == 3
+    episode_index = np.array([int(dataset[i]["episode_index"]) for i in range(len(dataset))])
+    assert np.array_equal(episode_index, np.repeat(np.arange(3), lengths))
+    first = dataset[0]
+    assert first["observation.state"].shape == (47,)
+    assert first["action"].shape == (4,)
+    assert first["task"].startswith("pick")
+    image = first["observation.images.front"]
+    assert tuple(image.shape) == (3, 32, 32)
+    assert float(image.max()) > float(image.min())  # a picture, not a blank
+    names = dataset.features["action"]["names"]
+    assert names == ["dx", "dy", "dz", "gripper"]
+    assert dataset.features["observation.state"]["names"][0] == "achieved_goal.0"
+
+
+@needs_lerobot
+def test_every_recorded_episode_replays_bit_for_bit(recorded: tuple[Path, object]) -> None:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    from panda_rapier.learning.lerobot_dataset import replay_lerobot_episode
+
+    root, summary = recorded
+    for k in range(3):
+        dataset = LeRobotDataset(summary.repo_id, root=root, episodes=[k])
+        states = np.stack(
+            [np.asarray(dataset[i]["observation.state"]) for i in range(len(dataset))]
+        )
+        replay = replay_lerobot_episode(root, k)
+        assert replay["observation.state"].shape == states.shape
+        assert np.array_equal(replay["observation.state"], states), f"episode {k}"
+    # The expert succeeded where the environment said so.
+    meta = json.loads((root / "meta" / "panda_rapier.json").read_text())
+    assert summary.success_rate == np.mean([e["success"] for e in meta["episodes"]])
+
+
+@needs_lerobot
+def test_bad_input_is_a_typed_error(recorded: tuple[Path, object], tmp_path: Path) -> None:
+    from panda_rapier.learning.lerobot_dataset import record_lerobot, replay_lerobot_episode
+
+    root, _ = recorded
+    with pytest.raises(InvalidArgumentError, match="already exists"):
+        record_lerobot(ENV_ID, 1, root)
+    with pytest.raises(InvalidArgumentError, match="episodes"):
+        record_lerobot(ENV_ID, 0, tmp_path / "none")
+    with pytest.raises(ConfigError, match="unknown environment id"):
+        record_lerobot("panda_rapier/Nothing-v0", 1, tmp_path / "none")
+    with pytest.raises(InvalidArgumentError, match="episode_index"):
+        replay_lerobot_episode(root, 3)
+
+
+@needs_lerobot
+def test_the_cli_writes_a_lerobot_dataset(tmp_path: Path) -> None:
+    root = tmp_path / "reach"
+    run = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "panda_rapier.cli",
+            "demos",
+            "--format",
+            "lerobot",
+            "--root",
+            str(root),
+            "--env",
+            "panda_rapier/ReachJoints-v0",
+            "--episodes",
+            "2",
+            "--num-envs",
+            "2",
+            "--first-seed",
+            "7510",
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert run.returncode == 0, run.stderr
+    assert "recorded 2 episodes" in run.stdout
+    meta = json.loads((root / "meta" / "panda_rapier.json").read_text())
+    assert meta["env_id"] == "panda_rapier/ReachJoints-v0"
+    assert (root / "meta" / "info.json").is_file()
+
+
+def test_lerobot_options_need_the_lerobot_format(tmp_path: Path) -> None:
+    run = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "panda_rapier.cli",
+            "demos",
+            "--camera",
+            "front",
+            "--episodes",
+            "1",
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert run.returncode != 0
+    assert "--format lerobot" in run.stderr
+
+
+@pytest.mark.skipif(HAS_LEROBOT, reason="lerobot is installed")
+def test_without_lerobot_the_error_names_the_extra(tmp_path: Path) -> None:
+    from panda_rapier.learning.lerobot_dataset import record_lerobot
+
+    with pytest.raises(ImportError, match=r"panda-rapier\[lerobot\]"):
+        record_lerobot(ENV_ID, 1, tmp_path / "x")
