@@ -169,3 +169,77 @@ def test_without_lerobot_the_error_names_the_extra(tmp_path: Path) -> None:
 
     with pytest.raises(ImportError, match=r"panda-rapier\[lerobot\]"):
         record_lerobot(ENV_ID, 1, tmp_path / "x")
+
+
+@needs_lerobot
+def test_the_benchmark_env_has_lerobots_keys_and_reports_success() -> None:
+    from panda_rapier import ScriptedPolicy
+    from panda_rapier.learning.lerobot_env import LeRobotObservation, PandaRapierEnv
+
+    env = LeRobotObservation("PickAndPlace-v0", cameras=["front"], image_size=32)
+    assert env.task_description.startswith("pick")
+    assert env._max_episode_steps == 70
+    # LeRobot marks its resets with an option of its own; the environment ignores it.
+    obs, info = env.reset(seed=7530, options={"lerobot_new_rollout": True})
+    assert set(obs) == {"agent_pos", "pixels"}
+    assert obs["agent_pos"].shape == (47,) and obs["agent_pos"].dtype == np.float32
+    assert obs["pixels"]["front"].shape == (32, 32, 3)
+    assert env.observation_space.contains(obs)
+    expert = ScriptedPolicy("panda_rapier/PickAndPlace-v0")
+    successes = []
+    for _ in range(70):
+        obs, _, terminated, truncated, info = env.step(expert.predict(obs["agent_pos"])[0])
+        successes.append(bool(info["is_success"]))
+        if terminated or truncated:
+            break
+    assert successes[-1], "the expert, acting on agent_pos, places the cube (seed 7530)"
+    config = PandaRapierEnv(task="PickAndPlaceJoints-v0", cameras=["front"], image_size=32)
+    assert config.type == "panda_rapier"
+    assert config.features["action"].shape == (8,)
+    assert config.features_map["pixels/front"] == "observation.images.front"
+    vec = config.create_envs(2)["panda_rapier"][0]
+    obs, _ = vec.reset(seed=7531)
+    assert obs["agent_pos"].shape == (2, 47)
+    vec.close()
+    with pytest.raises(ConfigError, match=r"env\.task"):
+        PandaRapierEnv(task="Nothing-v0")
+
+
+@needs_lerobot
+def test_lerobot_train_and_lerobot_eval_run_on_a_recorded_dataset(tmp_path: Path) -> None:
+    """The documented commands: a tiny ACT trained two steps by lerobot-train on a dataset
+    from panda-rapier demos, evaluated by lerobot-eval on --env.type=panda_rapier (the plugin
+    lerobot_env_panda_rapier must be installed, as scripts/lerobot-tests does)."""
+    from panda_rapier.learning.lerobot_dataset import record_lerobot
+    from panda_rapier.pixels import DEFAULT_CAMERA
+
+    root = tmp_path / "data"
+    record_lerobot(ENV_ID, 2, root, cameras={"front": DEFAULT_CAMERA}, image_size=32,
+                   num_envs=2, first_seed=7540)  # fmt: skip
+    bin_dir = Path(sys.executable).parent
+    train = subprocess.run(
+        [str(bin_dir / "lerobot-train"), "--dataset.repo_id=panda_rapier/PickAndPlace-expert",
+         f"--dataset.root={root}", "--policy.type=act", "--policy.device=cpu",
+         "--policy.push_to_hub=false", "--policy.pretrained_backbone_weights=null",
+         "--policy.dim_model=32", "--policy.dim_feedforward=64", "--policy.n_heads=2",
+         "--policy.n_encoder_layers=1", "--policy.n_decoder_layers=1", "--policy.use_vae=false",
+         "--policy.chunk_size=5", "--policy.n_action_steps=5", "--steps=2", "--batch_size=2",
+         f"--output_dir={tmp_path / 'train'}", "--save_freq=2", "--wandb.enable=false",
+         "--num_workers=0"],
+        capture_output=True, text=True, timeout=600, check=False,
+    )  # fmt: skip
+    assert train.returncode == 0, train.stderr[-3000:]
+    policy = tmp_path / "train" / "checkpoints" / "last" / "pretrained_model"
+    assert (policy / "model.safetensors").is_file()
+    evaluation = subprocess.run(
+        [str(bin_dir / "lerobot-eval"), f"--policy.path={policy}", "--env.type=panda_rapier",
+         "--env.task=PickAndPlace-v0", "--env.cameras=[front]", "--env.image_size=32",
+         "--eval.n_episodes=2", "--eval.batch_size=2", "--policy.device=cpu", "--seed=7550",
+         f"--output_dir={tmp_path / 'eval'}"],
+        capture_output=True, text=True, timeout=600, check=False,
+    )  # fmt: skip
+    assert evaluation.returncode == 0, evaluation.stderr[-3000:]
+    report = json.loads((tmp_path / "eval" / "eval_info.json").read_text())
+    overall = report["overall"]
+    assert overall["n_episodes"] == 2
+    assert 0.0 <= overall["pc_success"] <= 100.0
