@@ -105,13 +105,17 @@ impl NativeEnv {
     ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, PyDict>)> {
         let options: ResetOptions = match options_json {
             None => ResetOptions::default(),
-            Some(text) => serde_json::from_str(text).map_err(|e| {
-                invalid(
-                    py,
-                    ErrorClass::InvalidArgument,
-                    format!("reset options: {e}"),
-                )
-            })?,
+            // Through a `Value`, so an unknown or mistyped option's message names the option
+            // and what is expected, without a JSON line and column.
+            Some(text) => serde_json::from_str::<serde_json::Value>(text)
+                .and_then(serde_json::from_value)
+                .map_err(|e| {
+                    invalid(
+                        py,
+                        ErrorClass::InvalidArgument,
+                        format!("reset options: {e}"),
+                    )
+                })?,
         };
         let env = &mut self.env;
         detached(py, || env.reset(seed, &options).map(|_| ()))?.map_err(|e| to_py(py, e))?;
