@@ -16,6 +16,29 @@ fn kinematic() -> SimConfig {
     }
 }
 
+/// Commands the hand (pointing down) to `point` from the configuration `q` and steps 100
+/// control periods; returns the lowest TCP height reached.
+fn drive_hand_to(sim: &mut Simulation, q: &[f64], point: &Vector3<f64>) -> f64 {
+    let target = sim
+        .model()
+        .inverse_kinematics(
+            point,
+            Some(&hand_down()),
+            q,
+            sim.base_pose(),
+            &IkOptions::default(),
+        )
+        .unwrap()
+        .q;
+    sim.set_position_targets(&target).unwrap();
+    let mut lowest = f64::INFINITY;
+    for _ in 0..100 {
+        sim.step_control();
+        lowest = lowest.min(sim.tcp_state().position.z);
+    }
+    lowest
+}
+
 #[test]
 fn the_tutorial_grasp_holds_on_the_kinematic_arm() {
     let mut sim = Simulation::new(kinematic()).unwrap();
@@ -51,23 +74,7 @@ fn a_hand_driven_into_the_platform_stops_above_it() {
     let top = sim.scene().platform.as_ref().unwrap().top_center;
     let q = sim.joint_positions();
     let inside = Vector3::new(top[0], top[1], top[2] - 0.05);
-    let target = sim
-        .model()
-        .inverse_kinematics(
-            &inside,
-            Some(&hand_down()),
-            &q,
-            sim.base_pose(),
-            &IkOptions::default(),
-        )
-        .unwrap()
-        .q;
-    sim.set_position_targets(&target).unwrap();
-    let mut lowest = f64::INFINITY;
-    for _ in 0..100 {
-        sim.step_control();
-        lowest = lowest.min(sim.tcp_state().position.z);
-    }
+    let lowest = drive_hand_to(&mut sim, &q, &inside);
     println!(
         "lowest TCP {lowest:.4} m over a platform top at {:.3} m; {} physics steps refused",
         top[2],
@@ -112,23 +119,7 @@ fn a_hand_driven_into_a_fixture_stops_above_it() {
     let mut sim = Simulation::with_scene(config, model, scene).unwrap();
     let q = sim.joint_positions();
     let inside = Vector3::new(top[0], top[1], 0.05);
-    let target = sim
-        .model()
-        .inverse_kinematics(
-            &inside,
-            Some(&hand_down()),
-            &q,
-            sim.base_pose(),
-            &IkOptions::default(),
-        )
-        .unwrap()
-        .q;
-    sim.set_position_targets(&target).unwrap();
-    let mut lowest = f64::INFINITY;
-    for _ in 0..100 {
-        sim.step_control();
-        lowest = lowest.min(sim.tcp_state().position.z);
-    }
+    let lowest = drive_hand_to(&mut sim, &q, &inside);
     println!(
         "lowest TCP {lowest:.4} m over a fixture top at 0.100 m; {} physics steps refused",
         sim.arm_blocked_steps()
