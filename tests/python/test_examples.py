@@ -57,6 +57,9 @@ def test_readme_has_python_examples() -> None:
 def test_documented_python_example_runs(where: str, block: str, tmp_path: Path) -> None:
     if "import ray" in block:
         pytest.importorskip("ray", reason=f"the Ray example {where} needs '.[rllib]'")
+    if "lerobot" in block:
+        # Python >= 3.12 only: test_lerobot_dataset.py runs it in LeRobot's virtualenv.
+        pytest.importorskip("lerobot", reason=f"the LeRobot example {where} needs '.[lerobot]'")
     script = tmp_path / "example.py"
     script.write_text(block)
     # A Ray example's `ray.init(num_cpus=2)` starts its own Ray, as on a user's machine; it

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -243,3 +244,24 @@ def test_lerobot_train_and_lerobot_eval_run_on_a_recorded_dataset(tmp_path: Path
     overall = report["overall"]
     assert overall["n_episodes"] == 2
     assert 0.0 <= overall["pc_success"] <= 100.0
+
+
+@needs_lerobot
+def test_the_documented_lerobot_examples_run(tmp_path: Path) -> None:
+    """The guide's Python examples that use LeRobot (test_examples.py skips them where
+    lerobot is not installed)."""
+    page = Path(__file__).resolve().parents[2] / "docs" / "guide" / "demonstrations.md"
+    blocks = [
+        b
+        for b in re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.DOTALL)
+        if "lerobot" in b
+    ]
+    assert blocks, "the Demonstrations guide has a LeRobot example"
+    for i, block in enumerate(blocks):
+        script = tmp_path / f"example{i}.py"
+        script.write_text(block)
+        run = subprocess.run(
+            [sys.executable, script], cwd=tmp_path, capture_output=True, text=True,
+            timeout=600, check=False,
+        )  # fmt: skip
+        assert run.returncode == 0, run.stderr[-3000:]
