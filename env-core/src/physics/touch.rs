@@ -14,7 +14,7 @@
 use nalgebra::Vector3;
 use rapier3d::dynamics::{RigidBody, RigidBodyHandle};
 use rapier3d::geometry::ColliderHandle;
-use rapier3d::math::Vector;
+use rapier3d::math::{Rotation, Vector};
 use rapier3d::utils::OrthonormalBasis;
 
 use super::convert::{rot_to_na, vec_to_na};
@@ -101,7 +101,8 @@ impl TouchReading {
 }
 
 /// The velocity and angular momentum of one body of the hand subtree at the start of the
-/// touch window, and their rates over it.
+/// touch window, and its motion after the window's last physics step (the rates over the
+/// window follow from the two when the wrist is read, not on every step).
 #[derive(Debug, Clone, Copy)]
 struct BodyRate {
     body: RigidBodyHandle,
@@ -109,10 +110,24 @@ struct BodyRate {
     velocity: Vector3<f64>,
     /// Angular momentum about the centre of mass at the window's start (kg m^2/s).
     momentum: Vector3<f64>,
-    /// Mean acceleration of the centre of mass over the window (m/s^2).
-    acceleration: Vector3<f64>,
-    /// Mean rate of the angular momentum over the window (N m).
-    momentum_rate: Vector3<f64>,
+    /// Linear and angular velocity and orientation after the window's last physics step
+    /// (`None` before its first).
+    end: Option<(Vector, Vector, Rotation)>,
+}
+
+impl BodyRate {
+    /// Mean acceleration of the centre of mass (m/s^2) and mean rate of the angular momentum
+    /// (N m) over a window of `span` seconds, for a body of mass properties `rb`'s; zeros
+    /// before the window's first step.
+    fn rates(&self, rb: &RigidBody, span: f64) -> (Vector3<f64>, Vector3<f64>) {
+        match self.end {
+            Some((linvel, angvel, rotation)) => (
+                (vec_to_na(linvel) - self.velocity) / span,
+                (angular_momentum(rb, rotation, angvel) - self.momentum) / span,
+            ),
+            None => (Vector3::zeros(), Vector3::zeros()),
+        }
+    }
 }
 
 /// What the touch reading is computed from: sums over the physics steps of the window (the
@@ -150,15 +165,16 @@ impl TouchWindow {
     }
 }
 
-/// Angular momentum about the centre of mass (world frame).
-fn angular_momentum(rb: &RigidBody) -> Vector3<f64> {
+/// Angular momentum about the centre of mass (world frame) of a body with `rb`'s mass
+/// properties, turned by `rotation` and spinning at `angvel`.
+fn angular_momentum(rb: &RigidBody, rotation: Rotation, angvel: Vector) -> Vector3<f64> {
     let local = rb
         .mass_properties()
         .local_mprops
         .reconstruct_inertia_matrix();
     let inertia = nalgebra::Matrix3::from_fn(|i, j| local.col(j)[i] as f64);
-    let r = rot_to_na(*rb.rotation()).to_rotation_matrix();
-    (r.matrix() * inertia * r.matrix().transpose()) * vec_to_na(rb.angvel())
+    let r = rot_to_na(rotation).to_rotation_matrix();
+    (r.matrix() * inertia * r.matrix().transpose()) * vec_to_na(angvel)
 }
 
 impl Simulation {
@@ -204,9 +220,8 @@ impl Simulation {
                 window.bodies.push(BodyRate {
                     body,
                     velocity: vec_to_na(rb.linvel()),
-                    momentum: angular_momentum(rb),
-                    acceleration: Vector3::zeros(),
-                    momentum_rate: Vector3::zeros(),
+                    momentum: angular_momentum(rb, *rb.rotation(), rb.angvel()),
+                    end: None,
                 });
             }
         }
@@ -244,11 +259,9 @@ impl Simulation {
                 },
             );
         }
-        let span = window.steps as f64 * self.config.physics.solver.dt;
         for rate in &mut window.bodies {
             if let Some(rb) = self.world.bodies.get(rate.body) {
-                rate.acceleration = (vec_to_na(rb.linvel()) - rate.velocity) / span;
-                rate.momentum_rate = (angular_momentum(rb) - rate.momentum) / span;
+                rate.end = Some((rb.linvel(), rb.angvel(), *rb.rotation()));
             }
         }
         self.touch_window = window;
@@ -347,10 +360,9 @@ impl Simulation {
                 continue;
             };
             let mass = rb.mass_properties().local_mprops.mass() as f64;
+            let span = self.touch_window.steps as f64 * self.config.physics.solver.dt;
             let rate = self.touch_window.bodies.iter().find(|r| r.body == body);
-            let (a, dl) = rate.map_or((Vector3::zeros(), Vector3::zeros()), |r| {
-                (r.acceleration, r.momentum_rate)
-            });
+            let (a, dl) = rate.map_or((Vector3::zeros(), Vector3::zeros()), |r| r.rates(rb, span));
             let f = mass * (g - a);
             force += f;
             torque += (vec_to_na(rb.center_of_mass()) - origin).cross(&f) - dl;
