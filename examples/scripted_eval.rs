@@ -1,7 +1,7 @@
 //! Evaluates the scripted pick-and-place policy on seeded episodes and prints the success
 //! rate, steps to placing, returns and throughput.
 //!
-//! `cargo run --release --example scripted_eval -- [episodes] [ee|joints] [max_episode_steps] [num_envs] [task] [arm]`
+//! `cargo run --release --example scripted_eval -- [episodes] [ee|ee_pose|joints] [max_episode_steps] [num_envs] [task] [arm]`
 //!
 //! `task` is a [`TaskKind`] name (`pick_and_place`, `reach`, `lift`, `push`), `arm` `dynamic` or
 //! `kinematic`.
@@ -18,7 +18,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mode = match args.get(1).map(String::as_str) {
         None | Some("ee") => ControlMode::Ee,
         Some("joints") => ControlMode::Joints,
-        Some(other) => return Err(format!("control mode must be ee or joints, got {other}").into()),
+        Some("ee_pose") => ControlMode::EePose,
+        Some(other) => {
+            return Err(format!("control mode must be ee, ee_pose or joints, got {other}").into())
+        }
     };
     let limit: u32 = args.get(2).map_or(Ok(50), |s| s.parse())?;
     let num_envs: usize = args.get(3).map_or(Ok(32), |s| s.parse())?;

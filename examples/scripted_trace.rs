@@ -1,6 +1,6 @@
 //! Prints what the scripted policy sees and does in one seeded episode, step by step.
 //!
-//! `cargo run --release --example scripted_trace -- [seed] [ee|joints] [max_episode_steps] [env_index] [task] [arm]`
+//! `cargo run --release --example scripted_trace -- [seed] [ee|ee_pose|joints] [max_episode_steps] [env_index] [task] [arm]`
 //!
 //! `task` is a [`TaskKind`] name (default `pick_and_place`), `arm` `dynamic` (default) or
 //! `kinematic`.
@@ -15,6 +15,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let seed: u64 = args.first().map_or(Ok(0), |s| s.parse())?;
     let mode = match args.get(1).map(String::as_str) {
         Some("joints") => ControlMode::Joints,
+        Some("ee_pose") => ControlMode::EePose,
         _ => ControlMode::Ee,
     };
     let limit: u32 = args.get(2).map_or(Ok(50), |s| s.parse())?;
@@ -45,7 +46,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let t = env.step(&action)?;
         let get = |name: &str| obs[layout.slot(name).unwrap_or(0..0)].to_vec();
         println!(
-            "{step:3} {:9} a {:5.2?} tcp {:6.3?} cubes {:6.3?} goals {:6.3?} w {:.4} grasp {} placed {} d {:.3}",
+            "{step:3} {:9} a {:5.2?} tcp {:6.3?} cubes {:6.3?} goals {:6.3?} w {:.4} grasp {} placed {} d {:.3}{}",
             phase.as_str(),
             action,
             get("tcp_position"),
@@ -54,7 +55,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             get("gripper_width")[0],
             t.info.flag("is_grasped"),
             t.info.flag("is_placed"),
-            t.info.goal_distance
+            t.info.goal_distance,
+            // Tasks with more to say (peg insertion: the peg's depth and offset from the axis).
+            ["insertion_depth", "peg_axis_offset"]
+                .iter()
+                .filter_map(|k| t.info.get(k).map(|_| format!(" {k} {:.4}", t.info.number(k))))
+                .collect::<String>()
         );
         if t.truncated || t.terminated {
             break;

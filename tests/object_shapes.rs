@@ -337,3 +337,98 @@ fn bad_shapes_are_refused_by_name() {
     sim.set_object_properties(peg, 0.03, 0.1, 0.5).unwrap();
     assert!((sim.object_properties(peg).0 - 0.03).abs() < 1e-7);
 }
+
+#[test]
+fn an_object_given_another_shape_collides_renders_and_restores_as_it() {
+    let mut sim = world(scene());
+    let slab = sim.object("slab").unwrap();
+    let before = sim.snapshot();
+    // A taller bar: it rests on the floor 3 cm up instead of 1 cm.
+    let bar = ObjectShape::Box {
+        half_extents: [0.05, 0.015, 0.03],
+    };
+    sim.set_object_shape(slab, &bar).unwrap();
+    let mass = sim.object_properties(slab).1;
+    sim.set_object_pose(
+        slab,
+        &Vector3::new(0.5, 0.3, 0.08),
+        &UnitQuaternion::identity(),
+    )
+    .unwrap();
+    run(&mut sim, 1.5);
+    let z = sim.object_state(slab).position.z;
+    assert!((z - 0.03).abs() < 1e-3, "{z}");
+    assert!((sim.object_half_extents(slab) - Vector3::new(0.05, 0.015, 0.03)).norm() < 1e-6);
+    assert_eq!(mass, 0.1f32 as f64, "the mass is kept");
+    let mut visuals = Vec::new();
+    sim.visual_primitives(&mut visuals);
+    let drawn = visuals
+        .iter()
+        .find(|v| {
+            v.tag
+                == VisualTag::Object {
+                    index: slab.index(),
+                }
+        })
+        .unwrap();
+    match drawn.shape {
+        VisualShape::Box { half_extents } => {
+            assert!((half_extents - Vector3::new(0.05, 0.015, 0.03)).norm() < 1e-6)
+        }
+        ref other => panic!("{other:?}"),
+    }
+    // The spec keeps the shape the world was built with; a snapshot from before restores the
+    // old shape, one from after the new.
+    assert_eq!(sim.object_shape(slab), Some(&scene().objects[0].shape));
+    let after = sim.snapshot();
+    sim.restore(&before).unwrap();
+    assert!((sim.object_half_extents(slab) - Vector3::new(0.04, 0.02, 0.01)).norm() < 1e-6);
+    sim.restore(&after).unwrap();
+    assert!((sim.object_half_extents(slab) - Vector3::new(0.05, 0.015, 0.03)).norm() < 1e-6);
+    // Bad shapes are refused by name, and the object keeps its shape.
+    match sim.set_object_shape(slab, &ObjectShape::Sphere { radius: -1.0 }) {
+        Err(Error::InvalidConfig { field, .. }) => {
+            assert!(field.starts_with("scene.objects[0].shape"), "{field}")
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!((sim.object_half_extents(slab) - Vector3::new(0.05, 0.015, 0.03)).norm() < 1e-6);
+}
+
+#[test]
+fn a_resting_object_presses_on_another_with_its_weight_and_barely_sinks_in() {
+    let mut sim = world(scene());
+    let fixture = sim.object("fixture").unwrap();
+    let slab = sim.object("slab").unwrap();
+    // The slab (0.1 kg) lies across the fixture's top, 5 cm up (the cube that falls into the
+    // fixture is put aside).
+    let cube = sim.object("peg").unwrap();
+    sim.set_object_pose(
+        cube,
+        &Vector3::new(0.3, -0.2, 0.01),
+        &UnitQuaternion::identity(),
+    )
+    .unwrap();
+    sim.set_object_pose(
+        slab,
+        &Vector3::new(0.45, -0.35, 0.07),
+        &UnitQuaternion::identity(),
+    )
+    .unwrap();
+    run(&mut sim, 1.5);
+    let contact = sim.contact_between(slab, fixture);
+    assert_eq!(contact, sim.contact_between(fixture, slab));
+    assert!(contact.points > 0);
+    let weight = 0.1 * 9.81;
+    assert!(
+        (contact.normal_force - weight).abs() < 0.05 * weight,
+        "{contact:?}"
+    );
+    assert!(contact.penetration < 2e-3, "{contact:?}");
+    // Apart: nothing.
+    let ball = sim.object("ball").unwrap();
+    assert_eq!(
+        sim.contact_between(slab, ball),
+        panda_rapier::PairContact::default()
+    );
+}

@@ -39,8 +39,8 @@ pub use kinematics::{pointing_down, IkOptions, IkReport, IkSolution, IkWorkspace
 pub use model::{JointInfo, JointType, LinkInfo, Mimic, RobotModel, Tcp};
 pub use physics::{
     BodyState, FingerTouch, JointControl, JointState, LinkState, ObjectContacts, ObjectId,
-    ObjectShape, ObjectSpec, ObjectTouch, Scene, ShapePart, SimSnapshot, Simulation, TouchReading,
-    VisualPrimitive, VisualShape, VisualTag, Wrench,
+    ObjectShape, ObjectSpec, ObjectTouch, PairContact, Scene, ShapePart, SimSnapshot, Simulation,
+    TouchReading, VisualPrimitive, VisualShape, VisualTag, Wrench,
 };
 pub use robot::panda::READY as PANDA_READY;
 #[allow(deprecated)]

@@ -57,9 +57,17 @@ def test_bad_pose_options_name_themselves(options: dict[str, Any], name: str) ->
         panda_rapier.PandaEnv(control_mode="ee_pose", **options)
 
 
-def test_the_scripted_expert_refuses_pose_control() -> None:
-    with pytest.raises(ConfigError, match="ee_pose"):
-        panda_rapier.ScriptedPolicy({"control_mode": "ee_pose"})
+@pytest.mark.parametrize("frame", ["base", "hand"])
+def test_the_scripted_expert_acts_in_pose_control(frame: str) -> None:
+    # It steers the hand to `hand_down` (the orientation `ee` control holds) through the
+    # rotation entries, in either frame, and places as it does in `ee` control.
+    from panda_rapier.agents.evaluation import evaluate
+    from panda_rapier.registration import env_config
+
+    config = env_config("panda_rapier/PickAndPlace-v0", control_mode="ee_pose", ee_frame=frame)
+    policy = panda_rapier.ScriptedPolicy(config)
+    report = evaluate(policy, config, 20, num_envs=4)
+    assert report.placed_rate >= 0.9, report.placed_rate
 
 
 @pytest.mark.parametrize("mode", ["ee", "ee_pose"])

@@ -353,6 +353,9 @@ impl PandaEnv {
                 self.sim
                     .set_object_properties(object.object, size, mass, friction)?;
             }
+            if let Some(shape) = &object.shape {
+                self.sim.set_object_shape(object.object, shape)?;
+            }
         }
         self.sim.set_joint_positions(&self.q)?;
         let width = self.sim.gripper_width();

@@ -47,6 +47,19 @@ impl ObjectTouch {
     }
 }
 
+/// The contact between two objects in the last physics step: how deep they overlap and how
+/// hard they press (what a tight fit such as a peg in its hole is judged by).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PairContact {
+    /// Contact points the solver saw.
+    pub points: usize,
+    /// Deepest overlap (m, 0 when none) among them: the solver lets shapes sink into each
+    /// other by up to about its allowed error before it pushes them apart.
+    pub penetration: f64,
+    /// Total normal force (N) between the two, summed over the points.
+    pub normal_force: f64,
+}
+
 /// One body an object touches, as `Simulation::for_each_contact` reports it.
 enum Contact {
     Floor,
@@ -105,6 +118,28 @@ impl Simulation {
             },
         });
         touch
+    }
+
+    /// How `a` and `b` touch (all zero when they do not, or for an id of another world's
+    /// object).
+    pub fn contact_between(&self, a: ObjectId, b: ObjectId) -> PairContact {
+        let collider = |o: ObjectId| self.objects.get(o.0).map(|o| o.collider);
+        let (Some(ca), Some(cb)) = (collider(a), collider(b)) else {
+            return PairContact::default();
+        };
+        let Some(pair) = self.world.narrow_phase.contact_pair(ca, cb) else {
+            return PairContact::default();
+        };
+        let mut contact = PairContact::default();
+        for manifold in pair.solver_manifolds() {
+            for point in &manifold.points {
+                contact.points += 1;
+                contact.penetration = contact.penetration.max(-point.dist as f64);
+                contact.normal_force += point.data.impulse.abs() as f64;
+            }
+        }
+        contact.normal_force /= self.config.physics.solver.dt;
+        contact
     }
 
     /// Joints or constraints of any kind that attach `object` to another body. The grasp is

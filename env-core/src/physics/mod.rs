@@ -45,7 +45,7 @@ use crate::config::SimConfig;
 use crate::model::RobotModel;
 use crate::robot::Gripper;
 
-pub use contacts::{ObjectContacts, ObjectTouch};
+pub use contacts::{ObjectContacts, ObjectTouch, PairContact};
 pub use control::JointControl;
 use kinematic_arm::KinematicArm;
 pub use scene::{ObjectId, ObjectSpec, Scene};

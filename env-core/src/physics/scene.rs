@@ -228,6 +228,23 @@ impl Simulation {
         Ok(())
     }
 
+    /// Gives `object` another shape (a task that draws its objects' sizes per episode, such as
+    /// peg insertion's peg and hole); its mass, friction, pose and velocity are kept, its
+    /// inertia follows the new shape. The shape is checked as a scene's are, errors naming
+    /// `scene.objects[i].shape`. [`Simulation::object_shape`] keeps reporting the shape the
+    /// world was built with; snapshots and renderings see the new one.
+    pub fn set_object_shape(&mut self, object: ObjectId, shape: &ObjectShape) -> Result<()> {
+        let collider = self.scene_object(object)?.collider;
+        let field = format!("scene.objects[{}].shape", object.0);
+        shape.validate(&field)?;
+        let (built, local) = shape.build(&field)?;
+        if let Some(collider) = self.world.colliders.get_mut(collider) {
+            collider.set_shape(built);
+            collider.set_position_wrt_parent(pose_from_na(&local));
+        }
+        Ok(())
+    }
+
     /// The shape `object` was built with (`None` for an id of another world's object).
     pub fn object_shape(&self, object: ObjectId) -> Option<&ObjectShape> {
         self.scene.objects.get(object.0).map(|o| &o.shape)

@@ -281,6 +281,8 @@ pub struct ObjectStart {
     pub orientation: UnitQuaternion<f64>,
     /// Edge length (m), mass (kg) and friction for this episode, when randomised.
     pub properties: Option<(f64, f64, f64)>,
+    /// Its shape for this episode, where the task draws it (peg insertion's peg and hole).
+    pub shape: Option<crate::physics::ObjectShape>,
 }
 
 /// How an episode starts: where the objects go and the goal. A task fills it in
@@ -339,6 +341,7 @@ impl CubeProperties {
             properties: self
                 .randomised
                 .then_some((self.size, self.mass, self.friction)),
+            shape: None,
         }
     }
 }

@@ -271,6 +271,7 @@ impl Expert for FlipExpert {
         let tcp = v3(s.tcp.start);
         let at_rest = v3(velocity).norm() < REST_SPEED && v3(spin).norm() < REST_SPIN;
         let decision = |phase, tcp_target, speed| Decision {
+            hand: None,
             phase,
             tcp_target,
             speed,
@@ -420,6 +421,7 @@ impl Expert for FlipExpert {
         if low && behind {
             // Behind the face but off the line or the height: line up before touching.
             return Ok(Decision {
+                hand: None,
                 gain: DESCENT_GAIN,
                 ..decision(Phase::LINE_UP, at(line_up, push_z), DESCENT_SPEED)
             });
@@ -439,6 +441,7 @@ impl Expert for FlipExpert {
                 1.0
             };
             return Ok(Decision {
+                hand: None,
                 gain: DESCENT_GAIN,
                 ..decision(Phase::LINE_UP, at(line_up, push_z), speed)
             });

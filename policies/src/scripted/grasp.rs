@@ -163,6 +163,7 @@ pub(super) fn decide(
     let cube_to_goal = (cube - goal).norm();
 
     let decision = |phase, tcp_target, speed, gripper| Decision {
+        hand: None,
         phase,
         tcp_target,
         speed,

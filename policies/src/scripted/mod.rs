@@ -1,6 +1,6 @@
 //! The scripted experts, one per task, closed-loop and stateless, behind one policy type
-//! ([`ScriptedPolicy`]) that turns an expert's [`Decision`] (where the hand goes) into an
-//! action in either action mode.
+//! ([`ScriptedPolicy`]) that turns an expert's [`Decision`] (where the hand goes, and how it
+//! is turned) into an action in any action mode (`ee`, `ee_pose`, `joints`).
 //!
 //! Every action is a function of the current observation alone: the phase is recognised from
 //! where the hand, the fingers and the objects are, not remembered. So the policy can take over
@@ -35,7 +35,7 @@ pub use slide::SlideExpert;
 pub use stack::StackExpert;
 
 use nalgebra::{Isometry3, Matrix3, UnitQuaternion, Vector3};
-use panda_rapier_core::env::{make_task, ControlMode, EnvConfig};
+use panda_rapier_core::env::{make_task, ControlMode, EeFrame, EnvConfig};
 use panda_rapier_core::task::observation::{
     GRIPPER_WIDTH, JOINT_POSITIONS, JOINT_VELOCITIES, TCP_POSITION, TCP_VELOCITY,
 };
@@ -137,6 +137,10 @@ pub struct Decision {
     pub gain: f64,
     /// Gripper command: +1 open, -1 squeeze.
     pub gripper: f32,
+    /// The orientation the hand (the TCP frame) should turn to; `None` keeps the robot's
+    /// `hand_down`. Followed in `ee_pose` and `joints` control (an `ee` action cannot turn the
+    /// hand).
+    pub hand: Option<UnitQuaternion<f64>>,
 }
 
 /// What every expert reads besides the observation: the configuration, the parameters, where
@@ -220,7 +224,7 @@ impl ExpertContext {
     }
 }
 
-/// The scripted policy for one environment configuration, in either action mode: the task's
+/// The scripted policy for one environment configuration, in any action mode: the task's
 /// [`Expert`] decides, the policy acts. Actions depend on the observation only (see the
 /// module documentation).
 #[derive(Debug, Clone)]
@@ -248,14 +252,6 @@ impl ScriptedPolicy {
     /// The policy with explicit parameters.
     pub fn with_params(config: &EnvConfig, params: ScriptedParams) -> Result<Self> {
         config.validate()?;
-        if config.control_mode == ControlMode::EePose {
-            // The observation has no TCP orientation to steer a rotation by.
-            return Err(Error::InvalidConfig {
-                field: "control_mode".into(),
-                reason: "the scripted experts act in `ee` and `joints` control, not `ee_pose`"
-                    .into(),
-            });
-        }
         // The robot's facts (kinematics, base pose, start pose, joint order) exactly as the
         // environment sees them, without building a world.
         let robot = RobotSpec::new(&config.sim_config()?)?;
@@ -347,22 +343,39 @@ impl ScriptedPolicy {
         let gain = decision.gain;
         let delta =
             (decision.tcp_target - ahead).map(|d| (gain * d / ee_step).clamp(-limit, limit));
+        let hand = decision.hand.unwrap_or(cx.hand_down);
+        for (d, &slot) in self.dof_slots.iter().enumerate() {
+            self.q[d] = observation[cx.slots.joint_positions.start + slot] as f64;
+        }
         match cx.config.control_mode {
-            // Refused by `with_params`.
-            ControlMode::Ee | ControlMode::EePose => {
+            ControlMode::Ee => {
                 for i in 0..3 {
                     action[i] = delta[i] as f32;
                 }
             }
+            ControlMode::EePose => {
+                // The rotation from the hand's measured orientation to the wanted one, in the
+                // frame the actions are given in.
+                let now = self
+                    .model
+                    .tcp_pose(&self.q, &self.base)
+                    .map_or(hand, |pose| pose.rotation);
+                let (delta, rotation) = match cx.config.ee_frame {
+                    EeFrame::Base => (delta, (hand * now.inverse()).scaled_axis()),
+                    EeFrame::Hand => (now.inverse() * delta, (now.inverse() * hand).scaled_axis()),
+                };
+                let rot_step = cx.config.ee_rot_step;
+                for i in 0..3 {
+                    action[i] = delta[i] as f32;
+                    action[3 + i] = (rotation[i] / rot_step).clamp(-1.0, 1.0) as f32;
+                }
+            }
             ControlMode::Joints => {
                 let target = tcp + delta * ee_step;
-                for (d, &slot) in self.dof_slots.iter().enumerate() {
-                    self.q[d] = observation[cx.slots.joint_positions.start + slot] as f64;
-                }
                 let joint_step = cx.config.joint_step;
                 let solved = self.model.inverse_kinematics_in(
                     &target,
-                    Some(&cx.hand_down),
+                    Some(&hand),
                     &self.q,
                     &self.base,
                     &self.ik_options,
@@ -496,13 +509,7 @@ mod tests {
             control_mode: ControlMode::EePose,
             ..EnvConfig::default()
         };
-        match ScriptedPolicy::new(&pose) {
-            Err(Error::InvalidConfig { field, reason }) => {
-                assert_eq!(field, "control_mode");
-                assert!(reason.contains("ee_pose"), "{reason}");
-            }
-            other => panic!("{other:?}"),
-        }
+        assert_eq!(ScriptedPolicy::new(&pose).unwrap().action_dim(), 7);
         assert_eq!(policy().observation_dim(), 47);
     }
 }

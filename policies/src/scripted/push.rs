@@ -44,6 +44,7 @@ fn decide(
     let to_goal = (goal - cube).xy();
     let distance = to_goal.norm();
     let decision = |phase, tcp_target, speed, gain| Decision {
+        hand: None,
         phase,
         tcp_target,
         speed,

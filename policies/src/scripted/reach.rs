@@ -25,6 +25,7 @@ impl Expert for ReachExpert {
             1.0
         };
         Ok(Decision {
+            hand: None,
             phase: Phase::REACH,
             tcp_target: goal,
             speed: 1.0,

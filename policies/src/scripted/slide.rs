@@ -89,6 +89,7 @@ impl Expert for SlideExpert {
             .map_or_else(Vector3::zeros, |r| v3(&r));
         let period = 1.0 / cx.config().control_frequency;
         let decision = |phase, tcp_target, gripper| Decision {
+            hand: None,
             phase,
             tcp_target,
             speed: 1.0,

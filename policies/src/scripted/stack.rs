@@ -150,6 +150,7 @@ impl GraspRules for StackExpert {
             return None;
         }
         let decision = |phase, tcp_target, speed| Decision {
+            hand: None,
             phase,
             tcp_target,
             speed,
