@@ -22,7 +22,14 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: Steps of the scripted expert before each task's picture is taken (a task missing here gets
 #: a picture at step 40).
-PICTURE_STEPS = {"pick_and_place": 40, "reach": 12, "lift": 40, "push": 30, "stack": 95}
+PICTURE_STEPS = {
+    "pick_and_place": 40,
+    "reach": 12,
+    "lift": 40,
+    "push": 30,
+    "stack": 95,
+    "peg_insertion": 62,
+}
 
 
 def _tasks() -> dict[str, tuple[str, int]]:

@@ -265,3 +265,22 @@ fn the_scripted_expert_solves_every_task() {
         }
     }
 }
+
+#[test]
+fn the_peg_insertion_expert_inserts_the_peg_in_its_ids_action_modes() {
+    // The task's ids turn the hand: `ee_pose` actions, and `joints` at 0.1 rad per step. Over
+    // 1,000 seeds the expert inserts in 100.0 % and 99.7 % (`docs/tasks/peg_insertion.md`);
+    // on these 100 seeded episodes, at most one failure per mode.
+    let task = TaskKind::PegInsertion;
+    for (mode, joint_step) in [(ControlMode::EePose, 0.05), (ControlMode::Joints, 0.1)] {
+        let mut config = config(task, mode, RewardType::Sparse);
+        config.joint_step = joint_step;
+        config.max_episode_steps = Some(task.descriptor().episode_steps);
+        let report = evaluate(&config, 100, 25, Some(2), 0, |_| {}).unwrap();
+        assert!(
+            report.success_rate() >= 0.99,
+            "{mode:?}: {}",
+            report.success_rate()
+        );
+    }
+}

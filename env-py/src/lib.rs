@@ -27,6 +27,7 @@ fn default_config_json() -> String {
 
 /// Every registered task's static facts, in the registry's order: dicts of `name`,
 /// `id_stem`, `episode_steps`, `has_platform`, `has_placed` (an `is_placed` predicate),
+/// `ee_control_mode` (`ee`, or `ee_pose` for a task whose end-effector ids turn the hand),
 /// `summary`, `defaults` (the task section's default fields as JSON) and `reward_terms`
 /// (dicts of `name`, `info_key`, `default_weight`, `description`).
 /// `panda_rapier.registration` builds the Gymnasium ids from it.
@@ -42,6 +43,14 @@ fn tasks(py: Python<'_>) -> PyResult<Vec<Bound<'_, pyo3::types::PyDict>>> {
             dict.set_item("id_stem", d.id_stem)?;
             dict.set_item("episode_steps", d.episode_steps)?;
             dict.set_item("joint_step", kind.id_joint_step())?;
+            dict.set_item(
+                "ee_control_mode",
+                if kind.id_pose_actions() {
+                    "ee_pose"
+                } else {
+                    "ee"
+                },
+            )?;
             dict.set_item("has_platform", d.has_platform)?;
             dict.set_item("has_placed", d.has_placed())?;
             dict.set_item("summary", d.summary)?;

@@ -38,7 +38,12 @@ TASKS = {
     "Push": (3, 41, 70),
     "Slide": (3, 41, 100),
     "Flip": (4, 41, 200),
+    "PegInsertion": (6, 56, 100),
 }
+
+#: The action size of each task's end-effector ids where it is not 4 (``ee``): the tasks whose
+#: hand must turn take ``ee_pose`` actions.
+EE_ACTIONS = {"PegInsertion": 7}
 
 
 def test_env_ids_and_spaces() -> None:
@@ -48,7 +53,7 @@ def test_env_ids_and_spaces() -> None:
         for variant in ("", "Dense", "Joints", "JointsDense")
     )
     for task, (goal, observation, steps) in TASKS.items():
-        for variant, action in (("", 4), ("JointsDense", 8)):
+        for variant, action in (("", EE_ACTIONS.get(task, 4)), ("JointsDense", 8)):
             env = gym.make(f"panda_rapier/{task}{variant}-v0")
             assert env.action_space.shape == (action,)
             assert env.spec is not None and env.spec.max_episode_steps == steps

@@ -19,7 +19,7 @@
 //!
 //! - [`registry`]: the tasks, their descriptors and configuration sections;
 //! - one file per task ([`pick_and_place`], [`reach`], [`lift`], [`stack`], [`push`],
-//!   [`slide`], [`flip`]);
+//!   [`slide`], [`flip`], [`peg_insertion`]);
 //! - `base`: what tasks share;
 //! - [`context`], [`config`], [`episode`], [`observation`], [`reward`]: the types tasks are
 //!   made of.
@@ -31,6 +31,7 @@ pub mod episode;
 pub mod flip;
 pub mod lift;
 pub mod observation;
+pub mod peg_insertion;
 pub mod pick_and_place;
 pub mod push;
 pub mod reach;
@@ -52,6 +53,7 @@ pub use observation::{
     info_field, InfoField, InfoType, InfoValue, ObservationLayout, Slot, SlotSource, SlotSpec,
     COMMON_INFO_FIELDS,
 };
+pub use peg_insertion::{PegInsertion, PegInsertionConfig};
 pub use pick_and_place::{PickAndPlace, PickAndPlaceConfig};
 pub use push::{Push, PushConfig};
 pub use reach::{Reach, ReachConfig};

@@ -85,6 +85,10 @@ pub trait TaskSpec: Task + Sized + 'static {
     /// faster than 0.05 rad per step moves it.
     const ID_JOINT_STEP: Option<f64> = None;
 
+    /// Whether the task's end-effector ids (`<Stem>-v0`, `<Stem>Dense-v0`) take `ee_pose`
+    /// actions instead of `ee`: a task whose hand must turn.
+    const ID_POSE_ACTIONS: bool = false;
+
     /// Checks `section` (with the options of `context` it depends on); errors name the field
     /// as `task.<field>`. (The section's cube and platform are checked before this is called.)
     fn validate(section: &Self::Config, context: &TaskContext) -> Result<()>;
@@ -133,6 +137,14 @@ macro_rules! tasks {
             pub fn id_joint_step(self) -> Option<f64> {
                 match self {
                     $(TaskKind::$variant => <$task as TaskSpec>::ID_JOINT_STEP),*
+                }
+            }
+
+            /// Whether the task's end-effector ids take `ee_pose` actions
+            /// ([`TaskSpec::ID_POSE_ACTIONS`]).
+            pub fn id_pose_actions(self) -> bool {
+                match self {
+                    $(TaskKind::$variant => <$task as TaskSpec>::ID_POSE_ACTIONS),*
                 }
             }
 
@@ -238,6 +250,7 @@ tasks! {
     Push => super::push::Push,
     Slide => super::slide::Slide,
     Flip => super::flip::Flip,
+    PegInsertion => super::peg_insertion::PegInsertion,
 }
 
 impl TaskKind {

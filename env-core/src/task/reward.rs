@@ -133,6 +133,10 @@ pub struct RewardWeights {
     pub release: f64,
     /// Weight of Flip's `orient` term.
     pub orient: f64,
+    /// Weight of peg insertion's `align` term.
+    pub align: f64,
+    /// Weight of peg insertion's `insert` term.
+    pub insert: f64,
 }
 
 impl RewardWeights {
@@ -170,6 +174,8 @@ impl RewardWeights {
             "place" => &mut self.place,
             "release" => &mut self.release,
             "orient" => &mut self.orient,
+            "align" => &mut self.align,
+            "insert" => &mut self.insert,
             _ => return None,
         })
     }

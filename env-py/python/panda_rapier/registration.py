@@ -33,10 +33,14 @@ TASK_JOINT_STEPS: dict[str, float] = {
     t["name"]: float(t["joint_step"]) for t in TASKS if t["joint_step"] is not None
 }
 
+#: The control mode of each task's end-effector ids: ``ee``, or ``ee_pose`` for a task whose
+#: hand must turn (peg insertion).
+TASK_EE_CONTROL_MODES: dict[str, str] = {t["name"]: str(t["ee_control_mode"]) for t in TASKS}
+
 _VARIANTS: dict[str, dict[str, Any]] = {
     f"panda_rapier/{name}{dense}-v0": {
         "task": task,
-        "control_mode": control,
+        "control_mode": TASK_EE_CONTROL_MODES[task] if control == "ee" else control,
         "reward_type": reward,
         **(
             {"joint_step": TASK_JOINT_STEPS[task]}
@@ -71,7 +75,10 @@ def task_places(task: str) -> bool:
 
 def task_id(task: str, control_mode: str = "ee", reward_type: str = "sparse") -> str:
     """The id of ``task`` (``"pick_and_place"``, ``"reach"``, ...) in an action mode and
-    reward type: ``task_id("reach", "joints")`` is ``panda_rapier/ReachJoints-v0``."""
+    reward type: ``task_id("reach", "joints")`` is ``panda_rapier/ReachJoints-v0``. ``"ee"``
+    names a task's end-effector ids whatever their actions (``ee_pose`` for peg insertion)."""
+    if control_mode == "ee":
+        control_mode = TASK_EE_CONTROL_MODES.get(task, "ee")
     wanted = {"task": task, "control_mode": control_mode, "reward_type": reward_type}
     for env_id, fixed in _VARIANTS.items():
         if all(fixed[key] == value for key, value in wanted.items()):

@@ -13,13 +13,16 @@
 //! retreat), also for `lift`; [`StackExpert`] runs it twice with a gentler grasp;
 //! [`PushExpert`] lines the closed hand up behind the cube and pushes; [`SlideExpert`] grasps
 //! the cube, slides it towards the goal and lets go at the speed that carries it there;
-//! [`FlipExpert`] turns the cube by pushing it with the closed fingers. [`expert_for`] is the
+//! [`FlipExpert`] turns the cube by pushing it with the closed fingers; [`PegInsertionExpert`]
+//! picks the peg up across its width, turns it onto the hole's axis and pushes it in, steering
+//! its leading end. [`expert_for`] is the
 //! list, one line per task of the core's registry (`TaskKind`; the compiler asks for a new
 //! task's line).
 
 mod flip;
 mod grasp;
 mod params;
+mod peg_insertion;
 mod pick_and_place;
 mod push;
 mod reach;
@@ -28,6 +31,7 @@ mod stack;
 
 pub use flip::FlipExpert;
 pub use params::ScriptedParams;
+pub use peg_insertion::PegInsertionExpert;
 pub use pick_and_place::PickAndPlaceExpert;
 pub use push::PushExpert;
 pub use reach::ReachExpert;
@@ -79,6 +83,7 @@ pub fn expert_for(task: TaskKind) -> &'static dyn Expert {
         TaskKind::Push => &PushExpert,
         TaskKind::Slide => &SlideExpert,
         TaskKind::Flip => &FlipExpert,
+        TaskKind::PegInsertion => &PegInsertionExpert,
     }
 }
 
