@@ -60,8 +60,9 @@ def main() -> None:
         # The full run's record stays; the partial runs are listed after it.
         record = {k: v for k, v in old.items() if k != "figures"}
         updates = list(record.get("updates", []))  # type: ignore[call-overload]
-        updates.append({"ids": args.ids, "command": f"{command} --ids {' '.join(args.ids)}",
-                        "date": today})
+        updates.append(
+            {"ids": args.ids, "command": f"{command} --ids {' '.join(args.ids)}", "date": today}
+        )
         record["updates"] = updates
     record["figures"] = {i: figures[i] for i in panda_rapier.ENV_IDS if i in figures}
     OUT.write_text(json.dumps(record, indent=1) + "\n")
