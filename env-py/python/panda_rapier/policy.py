@@ -34,18 +34,19 @@ _OBSERVATION_KEYS = _common.DICT_KEYS
 
 
 def _control_by_action_dim() -> dict[int, str]:
-    """The control mode each action length belongs to (4: ``ee``, 8: ``joints`` for the
-    Panda), from the native schema."""
+    """The control mode each action length belongs to (4: ``ee``, 7: ``ee_pose``, 8:
+    ``joints`` for the Panda), from the native schema."""
     return {
         _common.Schema.of(json.dumps({"control_mode": mode})).action_dim: mode
-        for mode in ("ee", "joints")
+        for mode in ("ee", "ee_pose", "joints")
     }
 
 
 def _config_of(source: Any) -> dict[str, Any]:
     """The environment configuration behind ``source``: a panda_rapier environment (possibly
     wrapped: Gymnasium wrappers, vector envs, stable-baselines3 VecEnvs), a registered id, an
-    action space (4 entries: ``ee`` control, 8: ``joints``) or a configuration dict."""
+    action space (4 entries: ``ee`` control, 7: ``ee_pose``, 8: ``joints``) or a configuration
+    dict."""
     if source is None:
         return {}
     if isinstance(source, str):
@@ -56,8 +57,8 @@ def _config_of(source: Any) -> dict[str, Any]:
         control = _control_by_action_dim().get(int(np.prod(source.shape)))
         if control is None or len(source.shape) != 1:
             raise InvalidArgumentError(
-                f"an action space of shape (4,) (ee control) or (8,) (joints control) is "
-                f"needed, got {source.shape}"
+                f"an action space of shape (4,) (ee control), (7,) (ee_pose control) or (8,) "
+                f"(joints control) is needed, got {source.shape}"
             )
         return {"control_mode": control}
     for candidate in (source, getattr(source, "unwrapped", None)):
@@ -177,7 +178,8 @@ class ScriptedPolicy(_BaselinePolicy):
 
     ``source`` tells which configuration: a panda_rapier environment (``gym.make`` result,
     vector env, stable-baselines3 VecEnv; wrappers are looked through), a registered id, an
-    action space (shape ``(4,)``: ee control, ``(8,)``: joints control, other options default)
+    action space (shape ``(4,)``: ee control, ``(7,)``: ee_pose, ``(8,)``: joints control, other
+    options default)
     or a configuration dict; ``config`` keywords override single options. Only the
     configuration matters: one policy acts for any number of environments built from it.
 

@@ -401,6 +401,15 @@ def _build(
 INFERENCE_CHOICES = ("auto", "native", "torch")
 
 
+def _control_mode_of(action_shape: Any) -> str:
+    """The action mode a policy acts in, from its action shape (the native schema's action
+    lengths: for the Panda 4 ``ee``, 7 ``ee_pose``, 8 ``joints``); ``ee`` for any other."""
+    from ..policy import _control_by_action_dim
+
+    shape = tuple(action_shape or ())
+    return _control_by_action_dim().get(shape[0], "ee") if len(shape) == 1 else "ee"
+
+
 def load_policy(
     path: str | Path,
     env_id: str,
@@ -437,7 +446,7 @@ def load_policy(
             ) from error
         student = load_student(path)
         shape = getattr(student.policy.action_space, "shape", None)
-        overrides.setdefault("control_mode", "joints" if shape == (8,) else "ee")
+        overrides.setdefault("control_mode", _control_mode_of(shape))
         return student, overrides, student.observation, None
     if inference != "torch":
         try:
@@ -447,7 +456,7 @@ def load_policy(
                 raise
             fallback = str(why)
         else:
-            overrides.setdefault("control_mode", "joints" if policy.action_dim == 8 else "ee")
+            overrides.setdefault("control_mode", _control_mode_of((policy.action_dim,)))
             return policy, overrides, {}, None
     if not trust:
         reason = f"the native network cannot act it out ({fallback}); " if fallback else ""
@@ -461,7 +470,7 @@ def load_policy(
     observation_space, action_space = saved_spaces(path, trust=True)
     # The action mode the model acts in, from its action space.
     shape = getattr(action_space, "shape", None)
-    overrides.setdefault("control_mode", "joints" if shape == (8,) else "ee")
+    overrides.setdefault("control_mode", _control_mode_of(shape))
     observation = model_observation(observation_space)
     # Loaded with an environment of the evaluation's spaces: a mismatch is reported by
     # stable-baselines3, and hindsight replay buffers need one.

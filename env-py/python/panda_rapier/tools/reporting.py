@@ -182,8 +182,12 @@ def _evaluate_row(
 
 
 def _group_of(env_id: str) -> tuple[str, str]:
+    """The task and action mode (``ee`` or ``joints``) of an id's table; a task's
+    end-effector ids are its ``ee`` group whatever their actions (``ee_pose``: peg
+    insertion)."""
     fixed = variant(env_id)
-    return fixed["task"], fixed["control_mode"]
+    mode = "joints" if fixed["control_mode"] == "joints" else "ee"
+    return fixed["task"], mode
 
 
 def models_table(
