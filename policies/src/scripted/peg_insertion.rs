@@ -9,6 +9,7 @@
 //! stays at `hand_down`, and the expert succeeds only with pegs and holes lying near that yaw.
 
 use nalgebra::{UnitQuaternion, Vector3};
+use panda_rapier_core::task::flip::quaternion;
 use panda_rapier_core::{Error, Result};
 
 use super::{vector_at, Decision, Expert, ExpertContext, Phase};
@@ -71,16 +72,6 @@ fn wrap_half_turn(a: f64) -> f64 {
 /// The yaw (rad) of the horizontal part of `v`.
 fn yaw(v: &Vector3<f64>) -> f64 {
     v.y.atan2(v.x)
-}
-
-/// The unit quaternion of an observation's x, y, z, w slot.
-fn quaternion(o: &[f32]) -> UnitQuaternion<f64> {
-    UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
-        o[3] as f64,
-        o[0] as f64,
-        o[1] as f64,
-        o[2] as f64,
-    ))
 }
 
 impl Expert for PegInsertionExpert {
