@@ -204,6 +204,14 @@ fn every_error_variant_maps_to_its_python_class() {
             Class::Asset,
         ),
         (
+            Error::BadMesh {
+                field: text(),
+                path: "/nope.obj".into(),
+                reason: text(),
+            },
+            Class::Asset,
+        ),
+        (
             Error::UnknownJoint {
                 name: text(),
                 known: text(),

@@ -432,3 +432,70 @@ fn a_resting_object_presses_on_another_with_its_weight_and_barely_sinks_in() {
         panda_rapier::PairContact::default()
     );
 }
+
+/// A prism over a regular polygon of `sides` corners (circumradius `r`, `2 h` high) along z,
+/// as the convex hull of its corners, optionally wider at the top (a frustum, as a bowl's or a
+/// cup's hull is).
+fn prism(sides: usize, r: f64, top_r: f64, h: f64) -> ObjectShape {
+    let mut points = Vec::new();
+    for k in 0..sides {
+        let a = k as f64 * std::f64::consts::TAU / sides as f64 + 0.1;
+        points.push([r * a.cos(), r * a.sin(), -h]);
+        points.push([top_r * a.cos(), top_r * a.sin(), h]);
+    }
+    ObjectShape::ConvexHull { points }
+}
+
+#[test]
+fn hulls_with_faces_of_many_corners_rest_on_them() {
+    // Hulls whose base is one flat face of 5 to 32 corners (cans, bottles, bowls and cups
+    // from meshes have such faces). Before our parry patch (patches/parry3d/) a face touched
+    // the floor at its first four corners only: the hexagonal prism tipped over within 1 s
+    // and the 12-sided one rolled away and sank 2.5 mm into the floor.
+    let shapes = [
+        ("pentagon", prism(5, 0.03, 0.03, 0.02)),
+        ("hexagon", prism(6, 0.03, 0.03, 0.02)),
+        ("octagon", prism(8, 0.03, 0.03, 0.02)),
+        ("12-gon", prism(12, 0.03, 0.03, 0.02)),
+        ("32-gon can", prism(32, 0.033, 0.033, 0.06)),
+        ("16-gon cup", prism(16, 0.025, 0.04, 0.04)),
+    ];
+    // Each base 1 cm above the floor, away from the arm.
+    let objects = shapes
+        .iter()
+        .enumerate()
+        .map(|(i, (name, shape))| {
+            let ObjectShape::ConvexHull { points } = shape else {
+                unreachable!()
+            };
+            let h = points.iter().map(|p| p[2]).fold(0.0, f64::max);
+            let (x, y) = (0.35 + 0.1 * (i % 3) as f64, 0.3 + 0.15 * (i / 3) as f64);
+            object(name, shape.clone(), [x, y, h + 0.01])
+        })
+        .collect();
+    let mut sim = world(Scene {
+        platform: None,
+        objects,
+        floor_friction: None,
+    });
+    run(&mut sim, 1.5);
+    let settled: Vec<_> = ids(&sim).iter().map(|&o| sim.object_state(o)).collect();
+    run(&mut sim, 2.0);
+    for ((&o, before), (name, _)) in ids(&sim).iter().zip(&settled).zip(&shapes) {
+        let now = sim.object_state(o);
+        let tilt = now.orientation.angle_to(&UnitQuaternion::identity());
+        assert!(tilt < 0.01, "{name} tipped over: tilted {tilt} rad");
+        let drift = (now.position - before.position).norm();
+        assert!(drift < 1e-3, "{name} drifted {drift} m in 2 s");
+        // The hull's lowest point (its base) on the floor, within 1 mm.
+        let Some(ObjectShape::ConvexHull { points }) = sim.object_shape(o) else {
+            unreachable!("{name} is a hull")
+        };
+        let lowest = points
+            .iter()
+            .map(|&p| (now.orientation * Vector3::from(p) + now.position).z)
+            .fold(f64::INFINITY, f64::min);
+        assert!(lowest.abs() < 1e-3, "{name}'s base rests at z = {lowest}");
+        assert!(now.linear_velocity.norm() < 1e-3, "{name} still moves");
+    }
+}

@@ -101,6 +101,17 @@ pub enum Error {
         /// What is wrong with it.
         reason: String,
     },
+    /// A mesh file that cannot become an object's shape: missing or unreadable, of an unknown
+    /// format, malformed, empty, with non-finite coordinates, or with no part of any volume.
+    #[error("mesh file {path} (`{field}`) {reason}")]
+    BadMesh {
+        /// The option or field that names the file (`scene.objects[2].mesh`).
+        field: String,
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with it.
+        reason: String,
+    },
     /// A configuration value outside its valid range.
     #[error("invalid config: `{field}` {reason}")]
     InvalidConfig {

@@ -63,7 +63,8 @@ impl ErrorClass {
             | Error::SnapshotMismatch { .. } => Self::InvalidArgument,
             Error::AssetNotFound { .. }
             | Error::MalformedUrdf { .. }
-            | Error::MissingMesh { .. } => Self::Asset,
+            | Error::MissingMesh { .. }
+            | Error::BadMesh { .. } => Self::Asset,
             Error::ResetNeeded { .. } => Self::ResetNeeded,
             Error::IkNotConverged { .. } => Self::PandaRapier,
             // `Error` is `#[non_exhaustive]`: a variant added to the core later is raised as the

@@ -9,9 +9,6 @@ use rapier3d::geometry::SharedShape;
 use super::convert::{pose_from_na, vec_from_array};
 use crate::error::{ensure_all_finite, Error, Result};
 
-/// The most corners a flat face of an [`ObjectShape::ConvexHull`] may have.
-pub const MAX_FACE_CORNERS: u32 = 4;
-
 /// The shape of an object in its own frame (the frame [`super::Simulation::object_state`]
 /// reports; its centre of mass follows from the shape and a uniform density).
 #[derive(Debug, Clone, PartialEq)]
@@ -41,8 +38,10 @@ pub enum ObjectShape {
         /// Half the length of its central segment (m).
         half_height: f64,
     },
-    /// The convex hull of points (m), at least four of them not in one plane, with no flat face
-    /// of more than [`MAX_FACE_CORNERS`] corners (refused when built, for now).
+    /// The convex hull of points (m), at least four of them not in one plane. A flat face of
+    /// any number of corners rests on what it touches (our parry patch,
+    /// `patches/parry3d/`, lets a face of more than four corners touch at the four that span
+    /// the largest area).
     ConvexHull {
         /// The points; those inside the hull are dropped.
         points: Vec<[f64; 3]>,
@@ -249,27 +248,6 @@ impl ObjectShape {
                         field: format!("{field}.points"),
                         reason: "their convex hull has no volume (all points in one plane)".into(),
                     })?;
-                // parry 0.31.1 lets a face touch another shape at its first four corners only
-                // (`ConvexPolyhedron::local_support_feature`): a hull resting on a hexagon
-                // tips over, one resting on a 12-gon sinks into the floor. Refused until that
-                // is mended, rather than simulated wrongly.
-                let corners = hull.as_convex_polyhedron().map_or(0, |p| {
-                    p.faces()
-                        .iter()
-                        .map(|f| f.num_vertices_or_edges)
-                        .max()
-                        .unwrap_or(0)
-                });
-                if corners > MAX_FACE_CORNERS {
-                    return Err(Error::InvalidConfig {
-                        field: format!("{field}.points"),
-                        reason: format!(
-                            "their convex hull has a flat face with {corners} corners; faces \
-                             of more than {MAX_FACE_CORNERS} corners are not simulated correctly \
-                             yet (split the shape into a compound of hulls)"
-                        ),
-                    });
-                }
                 (hull, Isometry3::identity())
             }
             Self::Compound { parts } => {
@@ -330,16 +308,6 @@ mod tests {
         flat.validate("o").unwrap();
         let err = flat.build("o").unwrap_err().to_string();
         assert!(err.contains("o.points"), "{err}");
-        let hexagon = ObjectShape::ConvexHull {
-            points: (0..12)
-                .map(|k| {
-                    let a = (k / 2) as f64 * std::f64::consts::FRAC_PI_3;
-                    [a.cos(), a.sin(), if k % 2 == 0 { 0.5 } else { -0.5 }]
-                })
-                .collect(),
-        };
-        let err = hexagon.build("o").unwrap_err().to_string();
-        assert!(err.contains("6 corners"), "{err}");
         let nested = ObjectShape::Compound {
             parts: vec![ShapePart::at(
                 [0.0; 3],
