@@ -354,6 +354,23 @@ def test_stop_at_ends_a_run_once_validation_reaches_it() -> None:
     assert "patience 3" in (stop_reason(recorder, worse, 3, None) or "")
 
 
+def test_a_run_that_never_succeeds_keeps_its_most_rewarded_policy() -> None:
+    """Before the first success, best.zip follows the mean return (a PegInsertion run from
+    scratch kept its first evaluation's policy for 6.5 M steps, return 179 against 538);
+    once one evaluation succeeds, success decides, and equal rates keep the earlier one."""
+    from panda_rapier.learning.runs import Recorder
+
+    recorder = Recorder.__new__(Recorder)
+    recorder.best, recorder.since_best = None, 0
+    zero = {"success_rate": 0.0, "placed_rate": 0.0}
+    assert recorder._rank({**zero, "mean_return": 179.0})
+    assert recorder._rank({**zero, "mean_return": 538.0})
+    assert not recorder._rank({**zero, "mean_return": 500.0})
+    assert recorder._rank({"success_rate": 0.01, "placed_rate": 0.0, "mean_return": 100.0})
+    assert not recorder._rank({"success_rate": 0.01, "placed_rate": 0.0, "mean_return": 900.0})
+    assert not recorder._rank({**zero, "mean_return": 2000.0})
+
+
 def test_train_init_from_starts_from_another_models_weights(tmp_path: Path) -> None:
     """Fine-tuning: a new run (here on the kinematic arm) starts from a saved model's weights
     and normaliser, and records where they came from; mismatched spaces are refused."""

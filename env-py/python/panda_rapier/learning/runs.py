@@ -95,7 +95,7 @@ class Recorder:
         self.checkpoint_time = 0.0
         self.started = time.perf_counter()
         self.say = say
-        self.best: tuple[float, float] | None = None
+        self.best: tuple[float, float, float] | None = None
         #: Evaluations since the best one (0: the last was the best).
         self.since_best = 0
         for line in _read_lines(out / "evaluations.jsonl"):
@@ -104,10 +104,16 @@ class Recorder:
 
     def _rank(self, line: Mapping[str, Any]) -> bool:
         """Ranks an evaluation against the best so far (placed rate, then success rate, as
-        ``best.zip`` is chosen); True if it is the new best. An evaluation made while the
-        actor was frozen (``actor_frozen``: a critic warm-up) can be the best but does not
-        count towards ``--patience``: patience counts from the warm-up's end."""
-        key = (float(line["placed_rate"]), float(line["success_rate"]))
+        ``best.zip`` is chosen; the earlier of equal ones stays); True if it is the new best.
+        Evaluations that never succeed are ranked by their mean return, so a run that has not
+        succeeded yet keeps its most rewarded policy rather than its first (ties between
+        succeeding evaluations are not, so earlier runs choose what they chose). An
+        evaluation made while the actor was frozen (``actor_frozen``: a critic warm-up) can be
+        the best but does not count towards ``--patience``: patience counts from the warm-up's
+        end."""
+        placed, success = float(line["placed_rate"]), float(line["success_rate"])
+        never = placed == 0.0 and success == 0.0
+        key = (placed, success, float(line.get("mean_return", 0.0)) if never else 0.0)
         if self.best is None or key > self.best:
             self.best = key
             self.since_best = 0
