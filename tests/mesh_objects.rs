@@ -113,7 +113,10 @@ fn a_decomposed_cup_keeps_its_cavity_and_a_hull_does_not() {
         .load("cup", &ShapeCache::none())
         .unwrap();
     let parts = hull_count(&decomposed);
-    assert!((5..=16).contains(&parts), "the cup became {parts} convex part(s)");
+    assert!(
+        (5..=16).contains(&parts),
+        "the cup became {parts} convex part(s)"
+    );
     // At most `max_parts`, merged where they add the least volume; the same cup outline.
     let few = MeshFile {
         collision: MeshCollision::Decompose(Decomposition {
@@ -510,7 +513,9 @@ fn the_shipped_objects_load_and_rest_on_the_floor() {
         let now = sim.object_state(sim.object(name).unwrap());
         let drift = (now.position - before.position).norm();
         assert!(drift < 1e-3, "{name} still moves: {drift} m in 1 s");
-        let tilt = now.orientation.angle_to(&nalgebra::UnitQuaternion::identity());
+        let tilt = now
+            .orientation
+            .angle_to(&nalgebra::UnitQuaternion::identity());
         assert!(tilt < 0.05, "{name} fell over: tilted {tilt} rad");
         assert!(
             now.position.z.abs() < 1.5e-3,
