@@ -91,35 +91,53 @@ def lathe(profile: list[tuple[float, float]], segments: int, closed: bool = True
     return closed_and_outward(mesh)
 
 
-def tube(centres: np.ndarray, radii: np.ndarray, segments: int, up: np.ndarray) -> Mesh:
-    """A tube swept along a curve of centres (n x 3) with a radius per centre, closed at both
-    ends by poles; `up` fixes the roll of its cross-sections."""
-    mesh = Mesh()
-    n = len(centres)
+def tube_rings(
+    centres: np.ndarray, radii: np.ndarray, segments: int, up: np.ndarray, phase: float = 0.0
+) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """The cross-sections of a tube swept along a curve of centres (n x 3) with a radius per
+    centre (`up` fixes their roll), and the tips of its two rounded ends."""
     tangents = np.gradient(centres, axis=0)
     tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
-    angles = np.linspace(0.0, 2.0 * math.pi, segments, endpoint=False)
-    start = mesh.add([centres[0] - tangents[0] * radii[0] * 0.5])
+    angles = np.linspace(0.0, 2.0 * math.pi, segments, endpoint=False) + phase
     rings = []
-    for i in range(n):
+    for i in range(len(centres)):
         side = np.cross(tangents[i], up)
         side /= np.linalg.norm(side)
         normal = np.cross(side, tangents[i])
-        ring = centres[i] + radii[i] * (
-            np.cos(angles)[:, None] * side + np.sin(angles)[:, None] * normal
+        rings.append(
+            centres[i]
+            + radii[i] * (np.cos(angles)[:, None] * side + np.sin(angles)[:, None] * normal)
         )
-        rings.append(mesh.add(ring))
-    end = mesh.add([centres[-1] + tangents[-1] * radii[-1] * 0.5])
+    start = centres[0] - tangents[0] * radii[0] * 0.5
+    end = centres[-1] + tangents[-1] * radii[-1] * 0.5
+    return rings, start, end
+
+
+def closed_tube(rings: list[np.ndarray], start: np.ndarray, end: np.ndarray) -> Mesh:
+    """The closed surface through cross-sections, capped by the points `start` and `end`."""
+    mesh = Mesh()
+    segments = len(rings[0])
+    first = mesh.add([start])
+    ids = [mesh.add(ring) for ring in rings]
+    last = mesh.add([end])
     for k in range(segments):
         k1 = (k + 1) % segments
-        mesh.triangles.append((start, rings[0] + k1, rings[0] + k))
-        mesh.triangles.append((rings[-1] + k, rings[-1] + k1, end))
-    for a, b in itertools.pairwise(rings):
+        mesh.triangles.append((first, ids[0] + k1, ids[0] + k))
+        mesh.triangles.append((ids[-1] + k, ids[-1] + k1, last))
+    for a, b in itertools.pairwise(ids):
         for k in range(segments):
             k1 = (k + 1) % segments
             mesh.triangles.append((a + k, a + k1, b + k1))
             mesh.triangles.append((a + k, b + k1, b + k))
     return closed_and_outward(mesh)
+
+
+def tube(
+    centres: np.ndarray, radii: np.ndarray, segments: int, up: np.ndarray, phase: float = 0.0
+) -> Mesh:
+    """A tube swept along a curve of centres (n x 3) with a radius per centre, closed at both
+    ends by points half a radius out; `up` fixes the roll of its cross-sections."""
+    return closed_tube(*tube_rings(centres, radii, segments, up, phase))
 
 
 def closed_and_outward(mesh: Mesh) -> Mesh:
@@ -158,6 +176,40 @@ def box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> Mesh:
     return closed_and_outward(mesh)
 
 
+Parts = list[Mesh] | None
+
+
+def solid_lathe(profile: list[tuple[float, float]], segments: int) -> tuple[Mesh, Parts]:
+    """A solid turned about z (the profile runs from the axis at the bottom, up the outside,
+    back to the axis at the top) and its exact convex decomposition: one frustum (or cone,
+    where the profile meets the axis) per profile segment that rises."""
+
+    def piece(r0: float, z0: float, r1: float, z1: float) -> Mesh:
+        corners = [(0.0, z0), (r0, z0), (r1, z1), (0.0, z1)]
+        return lathe([c for k, c in enumerate(corners) if k in (0, 3) or c[0] > 0], segments)
+
+    parts = [
+        piece(r0, z0, r1, z1)
+        for (r0, z0), (r1, z1) in itertools.pairwise(profile)
+        if z1 > z0 and max(r0, r1) > 0
+    ]
+    return lathe(profile, segments), parts
+
+
+def solid_tube(
+    centres: np.ndarray, radii: np.ndarray, segments: int, up: np.ndarray, phase: float = 0.0
+) -> tuple[Mesh, Parts]:
+    """A tube ([`tube`]) and its exact convex decomposition: one piece per pair of successive
+    cross-sections (flat where it meets the next, rounded at the tube's ends)."""
+    rings, start, end = tube_rings(centres, radii, segments, up, phase)
+    parts = []
+    for i in range(len(rings) - 1):
+        a = start if i == 0 else rings[i].mean(0)
+        b = end if i == len(rings) - 2 else rings[i + 1].mean(0)
+        parts.append(closed_tube(rings[i : i + 2], a, b))
+    return closed_tube(rings, start, end), parts
+
+
 def hollow(
     outer: list[tuple[float, float]], wall: float, bottom: float
 ) -> list[tuple[float, float]]:
@@ -168,77 +220,93 @@ def hollow(
     return [*outer, (rim_r - wall, rim_z), *inside[1:], (outer[1][0] - wall, bottom), (0.0, bottom)]
 
 
-def can() -> Mesh:
-    return lathe(
+def can() -> tuple[Mesh, Parts]:
+    return solid_lathe(
         [(0.0, 0.0), (0.030, 0.0), (0.033, 0.004), (0.033, 0.116), (0.029, 0.122), (0.0, 0.122)], 24
     )
 
 
-def bottle() -> Mesh:
+def bottle() -> tuple[Mesh, Parts]:
     profile = [(0.0, 0.0), (0.030, 0.0), (0.032, 0.005), (0.032, 0.130), (0.026, 0.160)]
     profile += [(0.015, 0.180), (0.013, 0.215), (0.014, 0.225), (0.0, 0.225)]
-    return lathe(profile, 20)
+    return solid_lathe(profile, 20)
 
 
-def bowl() -> Mesh:
+def bowl() -> tuple[Mesh, Parts]:
     outer = [(0.0, 0.0), (0.035, 0.0), (0.040, 0.006)]
     outer += [
         (0.040 + 0.030 * math.sin(t), 0.006 + 0.044 * (1 - math.cos(t)))
         for t in np.linspace(0.2, math.pi / 2, 6)
     ]
-    return lathe(hollow(outer, 0.006, 0.008), 24)
+    # Hollow: its collision shape is the V-HACD decomposition of the mesh.
+    return lathe(hollow(outer, 0.006, 0.008), 24), None
 
 
-def mug() -> Mesh:
+def mug() -> tuple[Mesh, Parts]:
     body = lathe(hollow([(0.0, 0.0), (0.032, 0.0), (0.033, 0.095)], 0.005, 0.008), 24)
     # The handle: a half ring from the wall, outside on +x.
     t = np.linspace(-math.pi / 2, math.pi / 2, 9)
     centres = np.stack([0.030 + 0.028 * np.cos(t), np.zeros_like(t), 0.048 + 0.030 * np.sin(t)], 1)
     body.extend(tube(centres, np.full(len(t), 0.007), 10, np.array([0.0, 1.0, 0.0])))
-    return body
+    return body, None
 
 
-def banana() -> Mesh:
+def banana() -> tuple[Mesh, Parts]:
     # An arc of radius 11 cm in the x-y plane, thickest (1.8 cm radius) in the middle and
     # tapered to the ends, lying on the floor along its whole length (so it rests as made).
     t = np.linspace(-0.9, 0.9, 13)
     thickness = 0.018 * np.sqrt(np.clip(1 - t**2, 0.05, 1.0))
     centres = np.stack([0.11 * np.sin(t), 0.11 * (1 - np.cos(t)), thickness], 1)
     centres[:, 1] -= 0.5 * (centres[:, 1].min() + centres[:, 1].max())
-    return tube(centres, thickness, 12, np.array([0.0, 0.0, 1.0]))
+    return solid_tube(centres, thickness, 12, np.array([0.0, 0.0, 1.0]))
 
 
-def tennis_ball() -> Mesh:
+def tennis_ball() -> tuple[Mesh, Parts]:
     r = 0.033
     profile = [(r * math.sin(a), r - r * math.cos(a)) for a in np.linspace(0.0, math.pi, 11)]
     profile[0] = (0.0, 0.0)
     profile[-1] = (0.0, 2 * r)
-    return lathe(profile, 20)
+    return solid_lathe(profile, 20)
 
 
-def block() -> Mesh:
-    return box((-0.025, -0.04, 0.0), (0.025, 0.04, 0.05))
+def block() -> tuple[Mesh, Parts]:
+    block = box((-0.025, -0.04, 0.0), (0.025, 0.04, 0.05))
+    return block, [block]
 
 
-def hammer() -> Mesh:
+def hammer() -> tuple[Mesh, Parts]:
     # A T: a handle along x lying on the floor, a head across it at one end.
-    handle = box((-0.09, -0.012, 0.0), (0.06, 0.012, 0.024))
-    head = box((0.06, -0.045, 0.0), (0.09, 0.045, 0.03))
-    handle.extend(head)
-    return handle
-
-
-def cone() -> Mesh:
-    return lathe([(0.0, 0.0), (0.035, 0.0), (0.004, 0.09), (0.0, 0.09)], 20)
-
-
-def pear() -> Mesh:
-    profile = [(0.0, 0.0), (0.020, 0.0)]
-    profile += [
-        (0.034 * math.sin(a) + 0.002, 0.034 - 0.034 * math.cos(a)) for a in np.linspace(0.6, 2.0, 6)
+    parts = [
+        box((-0.09, -0.012, 0.0), (0.06, 0.012, 0.024)),
+        box((0.06, -0.045, 0.0), (0.09, 0.045, 0.03)),
     ]
-    profile += [(0.022, 0.070), (0.016, 0.085), (0.010, 0.095), (0.0, 0.098)]
-    return lathe(profile, 20)
+    whole = Mesh()
+    for part in parts:
+        whole.extend(part)
+    return whole, parts
+
+
+def screwdriver() -> tuple[Mesh, Parts]:
+    # Lying on the floor along x: a handle (radius 1.4 cm, 10 cm; 16 sides, one of them flat on
+    # the floor) and a thin shaft (3 mm, 8 cm) on the same axis; 18 cm from end to end,
+    # centred on the z axis.
+    axis = np.array([0.0, 0.0, 1.0])
+    half_step = math.pi / 16
+    height = 0.014 * math.cos(half_step)
+    handle = np.stack([np.linspace(-0.08725, 0.01275, 6), np.zeros(6), np.full(6, height)], 1)
+    body, parts = solid_tube(handle, np.full(6, 0.014), 16, axis, phase=half_step)
+    shaft = np.stack([np.linspace(0.01275, 0.09275, 5), np.zeros(5), np.full(5, height)], 1)
+    shaft_mesh, shaft_parts = solid_tube(shaft, np.full(5, 0.003), 8, axis)
+    body.extend(shaft_mesh)
+    return body, parts + shaft_parts
+
+
+def pear() -> tuple[Mesh, Parts]:
+    # A round body (radius 3 cm, widest 3 cm up) under a neck narrowing to the top at 8.2 cm.
+    profile = [(0.0, 0.0), (0.014, 0.0)]
+    profile += [(0.03 * math.sin(a), 0.03 - 0.03 * math.cos(a)) for a in np.linspace(0.5, 2.2, 8)]
+    profile += [(0.019, 0.060), (0.014, 0.072), (0.008, 0.080), (0.0, 0.082)]
+    return solid_lathe(profile, 20)
 
 
 # name: (builder, material)
@@ -251,7 +319,7 @@ OBJECTS = {
     "tennis_ball": (tennis_ball, "yellow"),
     "block": (block, "orange"),
     "hammer": (hammer, "brown"),
-    "cone": (cone, "purple"),
+    "screwdriver": (screwdriver, "purple"),
     "pear": (pear, "teal"),
 }
 
@@ -266,6 +334,22 @@ def write_obj(path: Path, name: str, mesh: Mesh, material: str) -> None:
     ]
     lines += [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in points]
     lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in mesh.triangles]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def write_parts(path: Path, name: str, parts: list[Mesh]) -> None:
+    """The convex decomposition: one `o` block per convex part (as PyBullet's `_vhacd` files
+    hold theirs), read with `MeshCollision::Parts`."""
+    lines = [
+        f"# {name}: convex collision parts, made by scripts/make_objects.py (panda_rapier)",
+    ]
+    first = 1
+    for k, part in enumerate(parts):
+        points = part.points()
+        lines.append(f"o part_{k}")
+        lines += [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in points]
+        lines += [f"f {a + first} {b + first} {c + first}" for a, b, c in part.triangles]
+        first += len(points)
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -285,12 +369,16 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     write_mtl(args.out / "objects.mtl")
     for name, (builder, material) in OBJECTS.items():
-        mesh = builder()
+        mesh, parts = builder()
         write_obj(args.out / f"{name}.obj", name, mesh, material)
+        if parts is not None:
+            write_parts(args.out / f"{name}_collision.obj", name, parts)
         lo, hi = mesh.points().min(0), mesh.points().max(0)
         size = " x ".join(f"{100 * s:.1f}" for s in hi - lo)
+        collision = f"{len(parts)} convex parts" if parts is not None else "decomposed when loaded"
         print(
-            f"{name:12s} {size} cm, {len(mesh.points())} vertices, {len(mesh.triangles)} triangles"
+            f"{name:12s} {size} cm, {len(mesh.points())} vertices, {len(mesh.triangles)} "
+            f"triangles; collision: {collision}"
         )
 
 

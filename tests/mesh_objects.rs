@@ -469,15 +469,23 @@ fn the_shipped_objects_load_and_rest_on_the_floor() {
         ("tennis_ball", [0.066, 0.066, 0.066]),
         ("block", [0.050, 0.080, 0.050]),
         ("hammer", [0.180, 0.090, 0.030]),
-        ("cone", [0.070, 0.070, 0.090]),
-        ("pear", [0.071, 0.071, 0.098]),
+        ("screwdriver", [0.1885, 0.0275, 0.0275]),
+        ("pear", [0.0597, 0.0597, 0.082]),
     ];
     let cache = ShapeCache::at(Path::new(env!("CARGO_TARGET_TMPDIR")).join("object-set-cache"));
     let mut objects = Vec::new();
     for (i, (name, size)) in expected.iter().enumerate() {
-        let shape = MeshFile::new(assets.join(format!("{name}.obj")))
-            .load(name, &cache)
-            .unwrap();
+        // Convex parts where the set ships them, else the mesh's decomposition.
+        let parts = assets.join(format!("{name}_collision.obj"));
+        let mesh = if parts.is_file() {
+            MeshFile {
+                collision: MeshCollision::Parts,
+                ..MeshFile::new(parts)
+            }
+        } else {
+            MeshFile::new(assets.join(format!("{name}.obj")))
+        };
+        let shape = mesh.load(name, &cache).unwrap();
         let points: Vec<[f64; 3]> = match &shape {
             ObjectShape::Compound { parts } => parts
                 .iter()

@@ -26,6 +26,7 @@ mod build;
 mod contacts;
 mod control;
 mod convert;
+mod grasp;
 mod kinematic_arm;
 mod mesh;
 mod scene;
@@ -48,6 +49,7 @@ use crate::robot::Gripper;
 
 pub use contacts::{ObjectContacts, ObjectTouch, PairContact};
 pub use control::JointControl;
+pub use grasp::{GripperGeometry, TopGrasp};
 use kinematic_arm::KinematicArm;
 pub use mesh::{Decomposition, LoadedMesh, MeshCollision, MeshFile, ShapeCache};
 pub use scene::{ObjectId, ObjectSpec, Scene};
