@@ -58,6 +58,15 @@ class Mesh:
         return np.concatenate(self.vertices)
 
 
+def band(mesh: Mesh, a: int, b: int, segments: int) -> None:
+    """Joins the ring of `segments` points starting at index `a` to the next one at `b` with
+    two triangles per side, facing out for rings in the same winding."""
+    for k in range(segments):
+        k1 = (k + 1) % segments
+        mesh.triangles.append((a + k, a + k1, b + k1))
+        mesh.triangles.append((a + k, b + k1, b + k))
+
+
 def lathe(profile: list[tuple[float, float]], segments: int, closed: bool = True) -> Mesh:
     """The surface turned about z from a profile of (radius, z) points, in order from the
     bottom centre up the outside (and back down the inside for a hollow object). A radius of 0
@@ -72,22 +81,18 @@ def lathe(profile: list[tuple[float, float]], segments: int, closed: bool = True
             ring = np.stack([r * np.cos(angles), r * np.sin(angles), np.full(segments, z)], 1)
             rings.append(("ring", mesh.add(ring)))
     for (kind0, a), (kind1, b) in itertools.pairwise(rings):
+        if kind0 == "ring" and kind1 == "ring":
+            band(mesh, a, b, segments)
+            continue
         for k in range(segments):
             k1 = (k + 1) % segments
             if kind0 == "pole" and kind1 == "ring":
                 mesh.triangles.append((a, b + k1, b + k))
             elif kind0 == "ring" and kind1 == "pole":
                 mesh.triangles.append((a + k, a + k1, b))
-            elif kind0 == "ring" and kind1 == "ring":
-                mesh.triangles.append((a + k, a + k1, b + k1))
-                mesh.triangles.append((a + k, b + k1, b + k))
     if closed and rings[0][0] == "ring" and rings[-1][0] == "ring":
         # Join the last ring to the first (a hollow profile that ends where it started).
-        a, b = rings[-1][1], rings[0][1]
-        for k in range(segments):
-            k1 = (k + 1) % segments
-            mesh.triangles.append((a + k, a + k1, b + k1))
-            mesh.triangles.append((a + k, b + k1, b + k))
+        band(mesh, rings[-1][1], rings[0][1], segments)
     return closed_and_outward(mesh)
 
 
@@ -125,10 +130,7 @@ def closed_tube(rings: list[np.ndarray], start: np.ndarray, end: np.ndarray) -> 
         mesh.triangles.append((first, ids[0] + k1, ids[0] + k))
         mesh.triangles.append((ids[-1] + k, ids[-1] + k1, last))
     for a, b in itertools.pairwise(ids):
-        for k in range(segments):
-            k1 = (k + 1) % segments
-            mesh.triangles.append((a + k, a + k1, b + k1))
-            mesh.triangles.append((a + k, b + k1, b + k))
+        band(mesh, a, b, segments)
     return closed_and_outward(mesh)
 
 

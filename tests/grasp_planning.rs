@@ -7,8 +7,8 @@ use std::path::Path;
 
 use nalgebra::{UnitQuaternion, Vector3};
 use panda_rapier::{
-    Gripper, GripperGeometry, IkOptions, JointControl, MeshCollision, MeshFile, ObjectShape,
-    ObjectSpec, RobotModel, Scene, ShapeCache, SimConfig, Simulation, TopGrasp,
+    Gripper, GripperGeometry, IkOptions, JointControl, MeshFile, ObjectShape, ObjectSpec,
+    RobotModel, Scene, ShapeCache, SimConfig, Simulation, TopGrasp,
 };
 
 const OBJECTS: [&str; 10] = [
@@ -24,21 +24,13 @@ const OBJECTS: [&str; 10] = [
     "pear",
 ];
 
-/// A shipped object's collision shape: its convex parts where the set ships them
-/// (`NAME_collision.obj`), else the decomposition of its mesh.
+/// A shipped object's collision shape (its convex parts, or its mesh's decomposition).
 fn shipped(name: &str) -> ObjectShape {
     let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/objects");
     let cache = ShapeCache::at(Path::new(env!("CARGO_TARGET_TMPDIR")).join("object-set-cache"));
-    let parts = assets.join(format!("{name}_collision.obj"));
-    let mesh = if parts.is_file() {
-        MeshFile {
-            collision: MeshCollision::Parts,
-            ..MeshFile::new(parts)
-        }
-    } else {
-        MeshFile::new(assets.join(format!("{name}.obj")))
-    };
-    mesh.load(name, &cache).unwrap()
+    MeshFile::with_parts_beside(assets.join(format!("{name}.obj")))
+        .load(name, &cache)
+        .unwrap()
 }
 
 /// The hand pointing down, its fingers closing along the world direction at angle `yaw`.

@@ -3,12 +3,16 @@
 //! disk by content and settings, files of convex blocks are taken as they are, STL files load,
 //! and bad files are refused by name.
 
+#[path = "common/objects.rs"]
+mod objects;
+
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use objects::{object, run};
 use panda_rapier::{
-    Decomposition, Error, MeshCollision, MeshFile, ObjectShape, ObjectSpec, RobotModel, Scene,
-    ShapeCache, SimConfig, Simulation,
+    Decomposition, Error, MeshCollision, MeshFile, ObjectShape, ObjectSpec, Scene, ShapeCache,
+    Simulation,
 };
 
 /// A fresh scratch directory under the target directory.
@@ -69,33 +73,13 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     path
 }
 
+/// The default robot with `objects` on the floor (no platform).
 fn world(objects: Vec<ObjectSpec>) -> Simulation {
-    let config = SimConfig::default();
-    let model = RobotModel::from_config(&config).unwrap();
-    let scene = Scene {
+    objects::world(Scene {
         platform: None,
         objects,
         floor_friction: None,
-    };
-    Simulation::with_scene(config, model, scene).unwrap()
-}
-
-fn object(name: &str, shape: ObjectShape, position: [f64; 3]) -> ObjectSpec {
-    ObjectSpec {
-        name: name.into(),
-        shape,
-        mass: 0.1,
-        friction: 0.8,
-        position,
-        fixed: false,
-    }
-}
-
-fn run(sim: &mut Simulation, seconds: f64) {
-    let end = sim.time() + seconds;
-    while sim.time() < end - 1e-9 {
-        sim.step();
-    }
+    })
 }
 
 fn hull_count(shape: &ObjectShape) -> usize {
@@ -476,16 +460,9 @@ fn the_shipped_objects_load_and_rest_on_the_floor() {
     let mut objects = Vec::new();
     for (i, (name, size)) in expected.iter().enumerate() {
         // Convex parts where the set ships them, else the mesh's decomposition.
-        let parts = assets.join(format!("{name}_collision.obj"));
-        let mesh = if parts.is_file() {
-            MeshFile {
-                collision: MeshCollision::Parts,
-                ..MeshFile::new(parts)
-            }
-        } else {
-            MeshFile::new(assets.join(format!("{name}.obj")))
-        };
-        let shape = mesh.load(name, &cache).unwrap();
+        let shape = MeshFile::with_parts_beside(assets.join(format!("{name}.obj")))
+            .load(name, &cache)
+            .unwrap();
         let points: Vec<[f64; 3]> = match &shape {
             ObjectShape::Compound { parts } => parts
                 .iter()

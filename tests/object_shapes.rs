@@ -2,22 +2,15 @@
 //! drifting or sinking; a fixture stays where it is put and holds what falls into it; snapshots
 //! restore them bit for bit; renderers see every part; bad shapes are refused by name.
 
-use nalgebra::{Isometry3, UnitQuaternion, Vector3};
-use panda_rapier::{
-    Error, ObjectId, ObjectShape, ObjectSpec, RobotModel, Scene, ShapePart, SimConfig, Simulation,
-    VisualShape, VisualTag,
-};
+#[path = "common/objects.rs"]
+mod objects;
 
-fn object(name: &str, shape: ObjectShape, position: [f64; 3]) -> ObjectSpec {
-    ObjectSpec {
-        name: name.into(),
-        shape,
-        mass: 0.1,
-        friction: 0.8,
-        position,
-        fixed: false,
-    }
-}
+use nalgebra::{Isometry3, UnitQuaternion, Vector3};
+use objects::{object, run, world};
+use panda_rapier::{
+    Error, ObjectId, ObjectShape, RobotModel, Scene, ShapePart, SimConfig, Simulation, VisualShape,
+    VisualTag,
+};
 
 /// A box of outer size `outer` x `outer` x `height` on the floor with a square hole of side
 /// `hole` through it along z, as four walls.
@@ -120,19 +113,6 @@ fn scene() -> Scene {
             object("peg", ObjectShape::cube(0.02), [0.45, -0.35, 0.15]),
         ],
         floor_friction: None,
-    }
-}
-
-fn world(scene: Scene) -> Simulation {
-    let config = SimConfig::default();
-    let model = RobotModel::from_config(&config).unwrap();
-    Simulation::with_scene(config, model, scene).unwrap()
-}
-
-fn run(sim: &mut Simulation, seconds: f64) {
-    let end = sim.time() + seconds;
-    while sim.time() < end - 1e-9 {
-        sim.step();
     }
 }
 

@@ -7,6 +7,7 @@
 
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 use rapier3d::geometry::{Cuboid, Ray, Shape, SharedShape};
+use rapier3d::math::Pose;
 use rapier3d::parry::query::intersection_test;
 
 use super::convert::{pose_from_na, pose_to_na, vec_from_na, vec_to_na};
@@ -83,15 +84,19 @@ impl ObjectShape {
     /// The best top-down grasp of the object resting with its frame's z up, for `gripper`; None
     /// if no closing direction and centre fit (wider than the gripper opens wherever the
     /// fingers could come down). Among the grasps that fit, the one whose pads are covered
-    /// best (by rays across the pads' faces at three heights and three offsets) and then whose
+    /// best (by rays across the pads' faces at seven heights and three offsets) and then whose
     /// centre lies nearest above the centre of mass (so the lifted object hangs straight).
     ///
     /// # Errors
     /// The shape's own errors ([`ObjectShape::validate`]).
     pub fn top_grasp(&self, gripper: &GripperGeometry) -> Result<Option<TopGrasp>> {
         let (shape, local) = self.build("shape")?;
-        let pose = pose_from_na(&local);
-        let aabb = shape.compute_aabb(&pose);
+        let object = Placed {
+            shape: &shape,
+            pose: pose_from_na(&local),
+            local,
+        };
+        let aabb = shape.compute_aabb(&object.pose);
         let (lo, hi) = (aabb.mins, aabb.maxs);
         let c = shape.mass_properties(1.0).local_com;
         let com = local * Point3::new(f64::from(c.x), f64::from(c.y), f64::from(c.z));
@@ -113,7 +118,7 @@ impl ObjectShape {
                             continue;
                         }
                         let centre = Vector3::new(x, y, z);
-                        let Some(candidate) = grasp_at(&shape, &pose, centre, d, yaw, top, gripper)
+                        let Some(candidate) = grasp_at(&object, top, centre, d, yaw, gripper)
                         else {
                             continue;
                         };
@@ -132,15 +137,22 @@ impl ObjectShape {
     }
 }
 
-/// The grasp centred where the pads touch when closing along `d` at about `centre`, with its
-/// pad coverage (0 to 1), if it fits.
+/// The shape at its pose in the object's frame, in parry's and nalgebra's types (converted
+/// once, not per ray).
+struct Placed<'a> {
+    shape: &'a SharedShape,
+    pose: Pose,
+    local: Isometry3<f64>,
+}
+
+/// The grasp centred where the pads touch when closing along `d` at about `centre` (the
+/// object's top at height `top`), with its pad coverage (0 to 1), if it fits.
 fn grasp_at(
-    shape: &SharedShape,
-    pose: &rapier3d::math::Pose,
+    object: &Placed<'_>,
+    top: f64,
     centre: Vector3<f64>,
     d: Vector3<f64>,
     yaw: f64,
-    top: f64,
     gripper: &GripperGeometry,
 ) -> Option<(f64, TopGrasp)> {
     let half_open = gripper.max_opening / 2.0;
@@ -164,8 +176,8 @@ fn grasp_at(
                 let start = origin + side * half_open * d;
                 let toward = -side * d;
                 let Some((toi, n)) = cast(
-                    shape.as_ref(),
-                    &pose_to_na(pose),
+                    object.shape.as_ref(),
+                    &object.local,
                     start,
                     toward,
                     gripper.max_opening,
@@ -241,7 +253,8 @@ fn grasp_at(
         let cuboid = Cuboid::new(vec_from_na(&half));
         let place = pose_from_na(&Isometry3::from_parts(at.into(), rotation));
         // A pair parry cannot test counts as touching.
-        !intersection_test(pose, shape.as_ref(), &place, &cuboid).map_or(true, |i| i.intersecting)
+        !intersection_test(&object.pose, object.shape.as_ref(), &place, &cuboid)
+            .map_or(true, |i| i.intersecting)
     };
     for side in [1.0, -1.0] {
         let at = position

@@ -79,6 +79,26 @@ impl MeshFile {
         }
     }
 
+    /// The collision source of the mesh at `path` by the shipped object set's convention
+    /// (`assets/objects`): the convex parts of `STEM_collision.obj` beside it where that file
+    /// exists ([`MeshCollision::Parts`], as PyBullet ships `_vhacd` files), else the mesh
+    /// itself decomposed with the default [`Decomposition`].
+    pub fn with_parts_beside(path: impl Into<PathBuf>) -> Self {
+        let path = path.into();
+        let parts = path.file_stem().map(|stem| {
+            let mut name = stem.to_os_string();
+            name.push("_collision.obj");
+            path.with_file_name(name)
+        });
+        match parts {
+            Some(parts) if parts.is_file() => Self {
+                collision: MeshCollision::Parts,
+                ..Self::new(parts)
+            },
+            _ => Self::new(path),
+        }
+    }
+
     /// The collision shape: one [`ObjectShape::ConvexHull`], or a [`ObjectShape::Compound`] of
     /// them at the identity pose, in the file's (scaled) frame. `field` names this file in
     /// error messages (e.g. `scene.objects[2].mesh`). Decompositions are looked up in and
