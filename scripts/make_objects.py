@@ -229,8 +229,11 @@ def can() -> tuple[Mesh, Parts]:
 
 
 def bottle() -> tuple[Mesh, Parts]:
-    profile = [(0.0, 0.0), (0.030, 0.0), (0.032, 0.005), (0.032, 0.130), (0.026, 0.160)]
-    profile += [(0.015, 0.180), (0.013, 0.215), (0.014, 0.225), (0.0, 0.225)]
+    # A straight neck under a wider cap: fingers closing on the neck meet it along their whole
+    # pads (on a tapered neck they would touch its widest ring only, and the bottle would swing
+    # about it).
+    profile = [(0.0, 0.0), (0.030, 0.0), (0.032, 0.005), (0.032, 0.130), (0.026, 0.155)]
+    profile += [(0.014, 0.175), (0.014, 0.205), (0.0165, 0.207), (0.0165, 0.225), (0.0, 0.225)]
     return solid_lathe(profile, 20)
 
 
@@ -304,9 +307,11 @@ def screwdriver() -> tuple[Mesh, Parts]:
 
 
 def pear() -> tuple[Mesh, Parts]:
-    # A round body (radius 3 cm, widest 3 cm up) under a neck narrowing to the top at 8.2 cm.
-    profile = [(0.0, 0.0), (0.014, 0.0)]
-    profile += [(0.03 * math.sin(a), 0.03 - 0.03 * math.cos(a)) for a in np.linspace(0.5, 2.2, 8)]
+    # A round body (radius 3 cm, widest 3 cm up) on a flat base 4 cm across (it stands), under
+    # a neck narrowing to the top at 8.2 cm.
+    profile = [(0.0, 0.0), (0.02, 0.0)]
+    angles = [math.asin(0.02 / 0.03), *np.linspace(0.5, 2.2, 8)[2:]]
+    profile += [(0.03 * math.sin(a), 0.03 - 0.03 * math.cos(a)) for a in angles]
     profile += [(0.019, 0.060), (0.014, 0.072), (0.008, 0.080), (0.0, 0.082)]
     return solid_lathe(profile, 20)
 

@@ -356,6 +356,15 @@ impl PandaEnv {
             if let Some(shape) = &object.shape {
                 self.sim.set_object_shape(object.object, shape)?;
             }
+            if let Some(v) = object.variant {
+                self.sim.set_object_variant(
+                    object.object,
+                    v.index,
+                    v.mass,
+                    v.friction,
+                    v.rolling_damping,
+                )?;
+            }
         }
         self.sim.set_joint_positions(&self.q)?;
         let width = self.sim.gripper_width();

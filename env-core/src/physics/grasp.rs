@@ -76,6 +76,10 @@ const MIN_WIDTH: f64 = 0.004;
 const MAX_SLOPE: f64 = 0.3;
 /// The most the surface in front of a pad's middle may be turned about z from facing it (rad).
 const MAX_TURN: f64 = 0.5;
+/// Weight (per metre of width) of the material's width in a grasp's score, against the
+/// distance (m) of its centre from the centre of mass: a tie-break between grasps alike
+/// otherwise.
+const NARROW_WEIGHT: f64 = 0.1;
 /// A pad touches what lies within this of the first material it meets (m): on a round
 /// surface, the band around its widest line.
 const TOUCH: f64 = 0.001;
@@ -85,7 +89,8 @@ impl ObjectShape {
     /// if no closing direction and centre fit (wider than the gripper opens wherever the
     /// fingers could come down). Among the grasps that fit, the one whose pads are covered
     /// best (by rays across the pads' faces at seven heights and three offsets) and then whose
-    /// centre lies nearest above the centre of mass (so the lifted object hangs straight).
+    /// centre lies nearest above the centre of mass (so the lifted object hangs straight),
+    /// among equals across the narrowest material.
     ///
     /// # Errors
     /// The shape's own errors ([`ObjectShape::validate`]).
@@ -124,8 +129,10 @@ impl ObjectShape {
                         };
                         let (coverage, grasp) = candidate;
                         let offset = (grasp.position.xy() - com.coords.xy()).norm();
-                        // Coverage first (in steps of 1/21), then the distance from the centre of mass.
-                        let score = -coverage + offset;
+                        // Coverage first (in steps of 1/21), then the distance from the centre
+                        // of mass, and among equals the narrower material (across a box's
+                        // narrow side, not its wide one).
+                        let score = -coverage + offset + NARROW_WEIGHT * grasp.width;
                         if best.as_ref().is_none_or(|(s, _)| score < *s) {
                             best = Some((score, grasp));
                         }

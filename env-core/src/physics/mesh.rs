@@ -116,13 +116,25 @@ impl MeshFile {
     /// [`MeshFile::load`], saying also whether the decomposition came from the cache.
     pub fn load_report(&self, field: &str, cache: &ShapeCache) -> Result<LoadedMesh> {
         self.validate(field)?;
+        let bytes = fs::read(&self.path).map_err(|e| Error::BadMesh {
+            field: field.to_owned(),
+            path: self.path.clone(),
+            reason: format!("cannot be read: {e}"),
+        })?;
+        self.load_bytes(&bytes, field, cache)
+    }
+
+    /// [`MeshFile::load_report`] for a file's contents already in memory (an object compiled
+    /// into the library): `bytes` are read as the file at [`MeshFile::path`] would be, whose
+    /// extension gives the format and which error messages name.
+    pub fn load_bytes(&self, bytes: &[u8], field: &str, cache: &ShapeCache) -> Result<LoadedMesh> {
+        self.validate(field)?;
         let bad = |reason: String| Error::BadMesh {
             field: field.to_owned(),
             path: self.path.clone(),
             reason,
         };
-        let bytes = fs::read(&self.path).map_err(|e| bad(format!("cannot be read: {e}")))?;
-        let key = self.cache_key(&bytes);
+        let key = self.cache_key(bytes);
         if let MeshCollision::Decompose(_) = self.collision {
             if let Some(parts) = cache.read(&key) {
                 return Ok(LoadedMesh {
@@ -131,7 +143,7 @@ impl MeshFile {
                 });
             }
         }
-        let meshes = self.read_meshes(&bytes, &bad)?;
+        let meshes = self.read_meshes(bytes, &bad)?;
         let parts = match self.collision {
             MeshCollision::Parts => meshes.into_iter().map(|m| m.vertices).collect(),
             MeshCollision::Hull => vec![meshes.into_iter().flat_map(|m| m.vertices).collect()],

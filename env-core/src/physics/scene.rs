@@ -245,6 +245,46 @@ impl Simulation {
         Ok(())
     }
 
+    /// Marks `object` as the variant `index` of a task's set of objects, with that variant's
+    /// `mass` (kg), `friction` and `rolling_damping` (its body's angular damping, 1/s: rapier
+    /// has no rolling resistance, so without it a ball or a pear set down rolls on for ever;
+    /// it also damps spinning in the air) (a task that draws its object from a set per episode, after
+    /// giving it the variant's shape with [`Simulation::set_object_shape`]). The index is kept
+    /// with the object's collider, so snapshots restore it; [`Simulation::object_variant`]
+    /// reads it back.
+    pub fn set_object_variant(
+        &mut self,
+        object: ObjectId,
+        index: u32,
+        mass: f64,
+        friction: f64,
+        rolling_damping: f64,
+    ) -> Result<()> {
+        let field = format!("scene.objects[{}]", object.0);
+        positive(&format!("{field}.mass"), mass)?;
+        non_negative(&format!("{field}.friction"), friction)?;
+        non_negative(&format!("{field}.rolling_damping"), rolling_damping)?;
+        let SceneObject { body, collider, .. } = *self.scene_object(object)?;
+        if let Some(collider) = self.world.colliders.get_mut(collider) {
+            collider.set_mass(mass as f32);
+            collider.set_friction(friction as f32);
+            collider.user_data = u128::from(index);
+        }
+        if let Some(body) = self.world.bodies.get_mut(body) {
+            body.set_angular_damping(rolling_damping as f32);
+        }
+        Ok(())
+    }
+
+    /// The variant index [`Simulation::set_object_variant`] gave `object` last (0 before any,
+    /// and for an id of another world's object).
+    pub fn object_variant(&self, object: ObjectId) -> u32 {
+        self.objects
+            .get(object.0)
+            .and_then(|o| self.world.colliders.get(o.collider))
+            .map_or(0, |c| c.user_data as u32)
+    }
+
     /// The shape `object` was built with (`None` for an id of another world's object).
     pub fn object_shape(&self, object: ObjectId) -> Option<&ObjectShape> {
         self.scene.objects.get(object.0).map(|o| &o.shape)

@@ -177,6 +177,18 @@ impl ObjectShape {
         high
     }
 
+    /// The corners (lowest, highest) of the smallest box aligned with the object's frame that
+    /// holds the shape (m, object frame).
+    pub fn bounds(&self) -> (Vector3<f64>, Vector3<f64>) {
+        let mut low = Vector3::repeat(f64::INFINITY);
+        let mut high = Vector3::repeat(f64::NEG_INFINITY);
+        self.for_each_extreme(&Isometry3::identity(), &mut |p| {
+            low = low.inf(&p.coords);
+            high = high.sup(&p.coords);
+        });
+        (low, high)
+    }
+
     /// Calls `visit` with points whose bounding box is the shape's, in the frame `pose` puts
     /// the shape in: box and cylinder corners, sphere and capsule extremes, hull points.
     fn for_each_extreme(&self, pose: &Isometry3<f64>, visit: &mut impl FnMut(Point3<f64>)) {

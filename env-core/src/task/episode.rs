@@ -283,6 +283,23 @@ pub struct ObjectStart {
     pub properties: Option<(f64, f64, f64)>,
     /// Its shape for this episode, where the task draws it (peg insertion's peg and hole).
     pub shape: Option<crate::physics::ObjectShape>,
+    /// Which of a task's objects it is this episode, with that object's mass and friction,
+    /// where the task draws it from a set (pick-object's); the world keeps the index
+    /// ([`crate::physics::Simulation::object_variant`]).
+    pub variant: Option<ObjectVariant>,
+}
+
+/// Which of a task's set of objects an object is for one episode, and its mass and friction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObjectVariant {
+    /// Its index in the task's set.
+    pub index: u32,
+    /// Mass (kg).
+    pub mass: f64,
+    /// Friction coefficient.
+    pub friction: f64,
+    /// Angular damping of its body (1/s), for the rolling resistance rapier lacks.
+    pub rolling_damping: f64,
 }
 
 /// How an episode starts: where the objects go and the goal. A task fills it in
@@ -342,6 +359,7 @@ impl CubeProperties {
                 .randomised
                 .then_some((self.size, self.mass, self.friction)),
             shape: None,
+            variant: None,
         }
     }
 }

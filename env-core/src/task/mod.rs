@@ -45,7 +45,8 @@ use rand_chacha::ChaCha8Rng;
 pub use config::{Randomization, Region, RewardType, TaskThresholds};
 pub use context::TaskContext;
 pub use episode::{
-    EpisodeStart, ObjectStart, ResetOptions, StepInfo, TaskInfo, Transition, TASK_INFO_CAPACITY,
+    EpisodeStart, ObjectStart, ObjectVariant, ResetOptions, StepInfo, TaskInfo, Transition,
+    TASK_INFO_CAPACITY,
 };
 pub use flip::{Flip, FlipConfig};
 pub use lift::{Lift, LiftConfig};

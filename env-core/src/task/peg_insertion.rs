@@ -596,6 +596,7 @@ impl Task for PegInsertion {
                     orientation: UnitQuaternion::from_axis_angle(&Vector3::z_axis(), peg_yaw),
                     properties: None,
                     shape: Some(PegInsertionConfig::peg_shape(l, r)),
+                    variant: None,
                 },
                 ObjectStart {
                     object: self.hole_box(),
@@ -603,6 +604,7 @@ impl Task for PegInsertion {
                     orientation: box_rotation,
                     properties: None,
                     shape: Some(s.box_shape(h)),
+                    variant: None,
                 },
             ],
             bottom.iter().chain(outside.iter()).copied(),
