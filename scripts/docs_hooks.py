@@ -29,6 +29,7 @@ PICTURE_STEPS = {
     "push": 30,
     "stack": 95,
     "peg_insertion": 62,
+    "pick_object": 40,
 }
 
 

@@ -12,14 +12,15 @@
 //! The tasks are the [`registry`]'s list ([`TaskKind::ALL`], one file each here); adding one is a
 //! new file implementing [`Task`] and [`TaskSpec`] and one line in the registry. What several
 //! tasks share (a cube to carry, its observation slots, predicates and judgement; helpers of
-//! observations and info) is in `base`, which names no task; no task file names another.
+//! observations and info; objects drawn from a set) is in `base`, which names no task; no task
+//! file names another.
 //!
 //! Module layout (imports point down this list; the registry names every task, and tasks name
 //! the registry's descriptor types):
 //!
 //! - [`registry`]: the tasks, their descriptors and configuration sections;
 //! - one file per task ([`pick_and_place`], [`reach`], [`lift`], [`stack`], [`push`],
-//!   [`slide`], [`flip`], [`peg_insertion`]);
+//!   [`slide`], [`flip`], [`peg_insertion`], [`pick_object`]);
 //! - `base`: what tasks share;
 //! - [`context`], [`config`], [`episode`], [`observation`], [`reward`]: the types tasks are
 //!   made of.
@@ -33,6 +34,7 @@ pub mod lift;
 pub mod observation;
 pub mod peg_insertion;
 pub mod pick_and_place;
+pub mod pick_object;
 pub mod push;
 pub mod reach;
 pub mod registry;
@@ -42,6 +44,7 @@ pub mod stack;
 
 use rand_chacha::ChaCha8Rng;
 
+pub use base::objects::{ObjectEntry, ObjectFile};
 pub use config::{Randomization, Region, RewardType, TaskThresholds};
 pub use context::TaskContext;
 pub use episode::{
@@ -56,6 +59,7 @@ pub use observation::{
 };
 pub use peg_insertion::{PegInsertion, PegInsertionConfig};
 pub use pick_and_place::{PickAndPlace, PickAndPlaceConfig};
+pub use pick_object::{PickObject, PickObjectConfig};
 pub use push::{Push, PushConfig};
 pub use reach::{Reach, ReachConfig};
 pub use registry::{TaskConfig, TaskDescriptor, TaskKind, TaskSpec};

@@ -251,6 +251,7 @@ tasks! {
     Slide => super::slide::Slide,
     Flip => super::flip::Flip,
     PegInsertion => super::peg_insertion::PegInsertion,
+    PickObject => super::pick_object::PickObject,
 }
 
 impl TaskKind {

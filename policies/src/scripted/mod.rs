@@ -15,7 +15,8 @@
 //! the cube, slides it towards the goal and lets go at the speed that carries it there;
 //! [`FlipExpert`] turns the cube by pushing it with the closed fingers; [`PegInsertionExpert`]
 //! picks the peg up across its width, turns it onto the hole's axis and pushes it in, steering
-//! its leading end. [`expert_for`] is the
+//! its leading end; [`PickObjectExpert`] picks an object of any shape by the grasp the task
+//! plans for it and carries it to the goal. [`expert_for`] is the
 //! list, one line per task of the core's registry (`TaskKind`; the compiler asks for a new
 //! task's line).
 
@@ -24,6 +25,7 @@ mod grasp;
 mod params;
 mod peg_insertion;
 mod pick_and_place;
+mod pick_object;
 mod push;
 mod reach;
 mod slide;
@@ -33,6 +35,7 @@ pub use flip::FlipExpert;
 pub use params::ScriptedParams;
 pub use peg_insertion::PegInsertionExpert;
 pub use pick_and_place::PickAndPlaceExpert;
+pub use pick_object::PickObjectExpert;
 pub use push::PushExpert;
 pub use reach::ReachExpert;
 pub use slide::SlideExpert;
@@ -84,6 +87,7 @@ pub fn expert_for(task: TaskKind) -> &'static dyn Expert {
         TaskKind::Slide => &SlideExpert,
         TaskKind::Flip => &FlipExpert,
         TaskKind::PegInsertion => &PegInsertionExpert,
+        TaskKind::PickObject => &PickObjectExpert,
     }
 }
 

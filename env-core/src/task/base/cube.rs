@@ -144,6 +144,8 @@ pub(crate) struct CubeTask {
     thresholds: TaskThresholds,
     /// The platform's height (m) that scales the `lift` term.
     platform_height: f64,
+    /// The carried object's name in the scene (`"cube"`).
+    object_name: &'static str,
     cube: Option<ObjectId>,
 }
 
@@ -164,8 +166,16 @@ impl CubeTask {
             },
             thresholds: context.thresholds.clone(),
             platform_height,
+            object_name: "cube",
             cube: None,
         }
+    }
+
+    /// Judges the scene object called `name` instead of `"cube"` (a task whose object is drawn
+    /// from a set: [`CubeTask::evaluate_resting`] is told its resting half height).
+    pub(crate) fn named(mut self, name: &'static str) -> Self {
+        self.object_name = name;
+        self
     }
 
     /// The reward function ([`RewardFunction::compute_batch`] is `compute_reward`).
@@ -179,9 +189,10 @@ impl CubeTask {
         self.cube.unwrap_or_else(ObjectId::first)
     }
 
-    /// Finds the cube (the object called `"cube"`) in the world.
+    /// Finds the cube (the object called `"cube"`, or the name given to
+    /// [`CubeTask::named`]) in the world.
     pub(crate) fn bind(&mut self, sim: &Simulation) -> Result<()> {
-        self.cube = Some(sim.object("cube")?);
+        self.cube = Some(sim.object(self.object_name)?);
         Ok(())
     }
 
@@ -201,6 +212,14 @@ impl CubeTask {
 
     /// The predicates, the reward context and the verdict of the state `view` shows.
     pub(crate) fn evaluate(&self, view: &View<'_>) -> Verdict {
+        let (size, _, _) = view.sim.object_properties(self.cube());
+        self.evaluate_resting(view, size / 2.0)
+    }
+
+    /// [`CubeTask::evaluate`] of an object whose centre (the achieved goal) rests `half_height`
+    /// (m) above what it stands on: the `lift` term measures its lowest point's height.
+    pub(crate) fn evaluate_resting(&self, view: &View<'_>, half_height: f64) -> Verdict {
+        let size = 2.0 * half_height;
         let t = &self.thresholds;
         let cube = self.cube();
         let touch = view.sim.object_touch(cube);
@@ -210,7 +229,6 @@ impl CubeTask {
         let cube_spin = norm(&obs[l.task_slot(ANGULAR_VELOCITY)]);
         let reach_distance = norm(&obs[l.task_slot(RELATIVE_POSITION)]);
         let cube_z = obs[l.achieved_goal()][2] as f64;
-        let (size, _, _) = view.sim.object_properties(cube);
         let is_grasped = touch.finger_forces.iter().all(|&f| f >= t.grasp_force);
         let lift = lift_fraction(cube_z, size, self.platform_height);
         let w = &self.reward.weights;

@@ -4,6 +4,7 @@
 //! orientations as observations carry them). Tasks use this module; it names no task.
 
 pub(crate) mod cube;
+pub mod objects;
 
 use crate::task::observation::{info_field, InfoField, InfoType};
 use crate::task::reward::RewardTerm;
