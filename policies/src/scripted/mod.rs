@@ -132,6 +132,16 @@ fn vector_at(observation: &[f32], slot: &std::ops::Range<usize>) -> Vector3<f64>
     Vector3::new(o[0] as f64, o[1] as f64, o[2] as f64)
 }
 
+/// The angle `a` wrapped into `(-pi/2, pi/2]`: a direction without its sense.
+pub(super) fn wrap_half_turn(a: f64) -> f64 {
+    use std::f64::consts::PI;
+    let mut a = a.rem_euclid(PI);
+    if a > PI / 2.0 {
+        a -= PI;
+    }
+    a
+}
+
 /// What the controller decided for one observation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Decision {

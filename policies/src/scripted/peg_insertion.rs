@@ -12,7 +12,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use panda_rapier_core::task::flip::quaternion;
 use panda_rapier_core::{Error, Result};
 
-use super::{vector_at, Decision, Expert, ExpertContext, Phase};
+use super::{vector_at, wrap_half_turn, Decision, Expert, ExpertContext, Phase};
 
 impl Phase {
     /// Lifting the held peg clear of the platform and the box.
@@ -58,16 +58,6 @@ const PITCH_GAIN: f64 = 0.5;
 const MAX_TILT: f64 = 0.12;
 /// Speed (fraction of a full action) of the push into the hole.
 const INSERT_SPEED: f64 = 0.12;
-
-/// The angle `a` wrapped into `(-pi/2, pi/2]`: a direction without its sense.
-fn wrap_half_turn(a: f64) -> f64 {
-    use std::f64::consts::PI;
-    let mut a = a.rem_euclid(PI);
-    if a > PI / 2.0 {
-        a -= PI;
-    }
-    a
-}
 
 /// The yaw (rad) of the horizontal part of `v`.
 fn yaw(v: &Vector3<f64>) -> f64 {

@@ -13,7 +13,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use panda_rapier_core::task::flip::quaternion;
 use panda_rapier_core::{Error, Result};
 
-use super::{vector_at, Decision, Expert, ExpertContext, Phase};
+use super::{vector_at, wrap_half_turn, Decision, Expert, ExpertContext, Phase};
 
 /// The scripted expert of `pick_object` (see the module documentation).
 #[derive(Debug, Clone, Copy, Default)]
@@ -62,16 +62,6 @@ const PRE_CLOSE_GAP: f64 = 0.004;
 const SQUEEZE_BAND: f64 = 0.015;
 /// The carried object's lowest point keeps this far (m) above the platform's top.
 const CARRY_CLEARANCE: f64 = 0.03;
-
-/// The angle `a` wrapped into `(-pi/2, pi/2]`: a direction without its sense.
-fn wrap_half_turn(a: f64) -> f64 {
-    use std::f64::consts::PI;
-    let mut a = a.rem_euclid(PI);
-    if a > PI / 2.0 {
-        a -= PI;
-    }
-    a
-}
 
 impl Expert for PickObjectExpert {
     fn decide(&self, cx: &ExpertContext, observation: &[f32]) -> Result<Decision> {
