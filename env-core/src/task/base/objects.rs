@@ -6,6 +6,7 @@
 //! bounding box and the top-down grasp the planner finds for it
 //! ([`ObjectShape::top_grasp`]).
 
+use std::borrow::Cow;
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -147,7 +148,9 @@ impl ObjectEntry {
                         ),
                     )
                 })?;
-                (format!("shipped:{name}"), shipped_mesh(shipped), None)
+                // Its convex parts where shipped, else its mesh (decomposed).
+                let bytes = Cow::Borrowed(shipped.collision.unwrap_or(shipped.mesh));
+                (format!("shipped:{name}"), shipped_mesh(shipped), bytes)
             }
             ObjectEntry::File(file) => {
                 let collision = match file.collision.as_str() {
@@ -187,7 +190,7 @@ impl ObjectEntry {
                     file.scale,
                     file.collision
                 );
-                (key, mesh, Some(bytes))
+                (key, mesh, Cow::Owned(bytes))
             }
         };
         let loaded = memo().lock().ok().and_then(|m| m.get(&key).cloned());
@@ -195,15 +198,7 @@ impl ObjectEntry {
             Some(geometry) => geometry,
             None => {
                 let cache = ShapeCache::default_location();
-                let shape = match (&bytes, self) {
-                    (Some(bytes), _) => mesh.load_bytes(bytes, field, &cache)?.shape,
-                    (None, ObjectEntry::Shipped(name)) => {
-                        let shipped = shipped_object(name).expect("looked up above");
-                        let bytes = shipped.collision.unwrap_or(shipped.mesh);
-                        mesh.load_bytes(bytes, field, &cache)?.shape
-                    }
-                    (None, ObjectEntry::File(_)) => unreachable!("files are read above"),
-                };
+                let shape = mesh.load_bytes(&bytes, field, &cache)?.shape;
                 let geometry = Arc::new(Geometry::of(shape, field)?);
                 if let Ok(mut m) = memo().lock() {
                     m.insert(key, geometry.clone());
