@@ -113,6 +113,7 @@ fn pick(shape: ObjectShape, grasp: &TopGrasp, yaw: f64, lift: f64) -> f64 {
             fixed: false,
         }],
         floor_friction: None,
+        articulations: Vec::new(),
     };
     let mut sim = Simulation::with_scene(config, model, scene).unwrap();
     let object = sim.object("object").unwrap();

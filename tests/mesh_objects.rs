@@ -79,6 +79,7 @@ fn world(objects: Vec<ObjectSpec>) -> Simulation {
         platform: None,
         objects,
         floor_friction: None,
+        articulations: Vec::new(),
     })
 }
 

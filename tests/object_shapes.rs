@@ -113,6 +113,7 @@ fn scene() -> Scene {
             object("peg", ObjectShape::cube(0.02), [0.45, -0.35, 0.15]),
         ],
         floor_friction: None,
+        articulations: Vec::new(),
     }
 }
 
@@ -457,6 +458,7 @@ fn hulls_with_faces_of_many_corners_rest_on_them() {
         platform: None,
         objects,
         floor_friction: None,
+        articulations: Vec::new(),
     });
     run(&mut sim, 1.5);
     let settled: Vec<_> = ids(&sim).iter().map(|&o| sim.object_state(o)).collect();

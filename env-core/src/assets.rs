@@ -6,6 +6,13 @@ pub const PANDA_URDF: &str = include_str!("../../assets/panda/panda.urdf");
 /// [`PANDA_URDF`] as error messages name it.
 pub const PANDA_URDF_SOURCE: &str = "assets/panda/panda.urdf";
 
+/// The shipped cabinet with one drawer (`assets/cabinet/cabinet.urdf`, made by
+/// `scripts/make_cabinet.py`; every part a box, so it needs no mesh files).
+pub const CABINET_URDF: &str = include_str!("../../assets/cabinet/cabinet.urdf");
+
+/// Where [`CABINET_URDF`] comes from, for messages.
+pub const CABINET_URDF_SOURCE: &str = "assets/cabinet/cabinet.urdf";
+
 /// The tool centre points of the bundled robots' conventions, as (link, offset in m along
 /// the link's z axis): a description with one of these links gets that TCP
 /// ([`crate::model::RobotModel`]), any other its last link. The Panda's sits between the

@@ -38,10 +38,11 @@ pub use error::{Error, Result};
 pub use kinematics::{pointing_down, IkOptions, IkReport, IkSolution, IkWorkspace};
 pub use model::{JointInfo, JointType, LinkInfo, Mimic, RobotModel, Tcp};
 pub use physics::{
-    BodyState, Decomposition, FingerTouch, GripperGeometry, JointControl, JointState, LinkState,
-    LoadedMesh, MeshCollision, MeshFile, ObjectContacts, ObjectId, ObjectShape, ObjectSpec,
-    ObjectTouch, PairContact, Scene, ShapeCache, ShapePart, SimSnapshot, Simulation, TopGrasp,
-    TouchReading, VisualPrimitive, VisualShape, VisualTag, Wrench,
+    ArticulationId, ArticulationJoints, ArticulationSpec, BodyState, Decomposition, FingerTouch,
+    GripperGeometry, JointControl, JointState, LinkState, LoadedMesh, MeshCollision, MeshFile,
+    ObjectContacts, ObjectId, ObjectShape, ObjectSpec, ObjectTouch, PairContact, Scene, ShapeCache,
+    ShapePart, SimSnapshot, Simulation, TopGrasp, TouchReading, VisualPrimitive, VisualShape,
+    VisualTag, Wrench,
 };
 pub use robot::panda::READY as PANDA_READY;
 #[allow(deprecated)]

@@ -1,5 +1,5 @@
 //! The robot description: links, joints and limits read from a URDF, independent of the physics
-//! engine. Kinematics (`crate::kinematics`) and introspection work on this alone.
+//! engine (articulated objects, such as the shipped cabinet, are read the same way). Kinematics (`crate::kinematics`) and introspection work on this alone.
 //!
 //! Over 600 lines: reading and validating a URDF (every malformed case with its own message)
 //! and the unit tests of both make up most of it; the accessors are thin.
@@ -177,6 +177,16 @@ impl RobotModel {
             crate::assets::PANDA_URDF,
             Path::new("."),
             crate::assets::PANDA_URDF_SOURCE,
+        )
+    }
+
+    /// The shipped cabinet with one drawer (`assets/cabinet/cabinet.urdf`): not a robot but an
+    /// articulated object ([`crate::ArticulationSpec`]), read the same way.
+    pub fn cabinet() -> Result<Self> {
+        Self::parse(
+            crate::assets::CABINET_URDF,
+            Path::new("."),
+            crate::assets::CABINET_URDF_SOURCE,
         )
     }
 

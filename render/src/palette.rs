@@ -26,6 +26,10 @@ pub(crate) const PLATFORM: [u8; 3] = [176, 132, 86];
 pub(crate) const OBJECTS: [[u8; 3]; 3] = [[214, 52, 40], [40, 92, 214], [226, 178, 32]];
 /// The goal marker's colour.
 pub(crate) const GOAL: [u8; 3] = [40, 190, 80];
+/// An articulated object's root link (a cabinet's carcass).
+pub(crate) const CARCASS: [u8; 3] = [150, 104, 62];
+/// An articulated object's other links (a cabinet's drawer).
+pub(crate) const DRAWER: [u8; 3] = [206, 178, 128];
 /// The robot's links.
 pub(crate) const LINK: [u8; 3] = [236, 236, 236];
 /// The robot's hand and fingers.

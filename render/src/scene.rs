@@ -10,7 +10,9 @@ use serde::{Deserialize, Serialize};
 use crate::camera::{on_screen, Camera, CameraConfig, Projection};
 use crate::look::{episode_key, Look, VisualRandomization};
 use crate::mesh::{map3, tessellate_with, Detail, IndexedMesh, Triangle};
-use crate::palette::{GOAL, HAND, HEADLIGHT, LINK, OBJECTS, SHADOW, SKY_HORIZON, SKY_TOP};
+use crate::palette::{
+    CARCASS, DRAWER, GOAL, HAND, HEADLIGHT, LINK, OBJECTS, SHADOW, SKY_HORIZON, SKY_TOP,
+};
 use crate::raster::{Frame, ScreenVertex};
 use crate::segmentation;
 use crate::shadow::{Edges, Receiver, Shadows};
@@ -268,6 +270,9 @@ impl Renderer {
                     self.look.platform
                 }
                 VisualTag::Object { index } => self.look.objects[index % OBJECTS.len()],
+                // A cabinet's carcass in wood, its drawer (and any further link) lighter.
+                VisualTag::Articulation { link: 0, .. } => CARCASS,
+                VisualTag::Articulation { .. } => DRAWER,
                 VisualTag::RobotLink { finger: true, .. } => HAND,
                 VisualTag::RobotLink { link, .. } => {
                     let name = links.get(link).map_or("", |l| l.name.as_str());

@@ -12,6 +12,10 @@ pub const FLOOR: u8 = 1;
 pub const PLATFORM: u8 = 2;
 /// A goal marker (drawn only by cameras with `show_goal`).
 pub const GOAL: u8 = 3;
+/// Link `l` of an articulated object of the scene (`Scene::articulations`; a cabinet's carcass,
+/// its drawer) is `FIRST_ARTICULATION_LINK + l`, up to link 3 (later links share id 7; several
+/// articulated objects share these ids).
+pub const FIRST_ARTICULATION_LINK: u8 = 4;
 /// Object `k` of the task's scene (`Scene::objects`, in order) is `FIRST_OBJECT + k`, up to
 /// object 23 (later objects share id 31).
 pub const FIRST_OBJECT: u8 = 8;
@@ -25,13 +29,14 @@ pub fn id_of(tag: &VisualTag) -> u8 {
         VisualTag::Floor => FLOOR,
         VisualTag::Platform => PLATFORM,
         VisualTag::Object { index } => FIRST_OBJECT + index.min(23) as u8,
+        VisualTag::Articulation { link, .. } => FIRST_ARTICULATION_LINK + link.min(3) as u8,
         VisualTag::RobotLink { link, .. } => FIRST_LINK.saturating_add(link.min(223) as u8),
     }
 }
 
 /// Every id a picture of `sim` can show, with what it stands for, by increasing id:
-/// `background`, `floor`, `platform`, `goal`, `object:<name>` for each object of the scene and
-/// `link:<name>` for each robot link that has a shape to draw.
+/// `background`, `floor`, `platform`, `goal`, `articulation:<name>:<link>` for each link of an
+/// articulated object, `object:<name>` for each object of the scene and `link:<name>` for each robot link that has a shape to draw.
 pub fn table(sim: &Simulation) -> Vec<(u8, String)> {
     let mut primitives: Vec<VisualPrimitive> = Vec::new();
     sim.visual_primitives(&mut primitives);
@@ -49,6 +54,16 @@ pub fn table(sim: &Simulation) -> Vec<(u8, String)> {
                 "object:{}",
                 objects.get(index).map_or("", |o| o.name.as_str())
             ),
+            VisualTag::Articulation { index, link } => {
+                let articulation = sim.scene().articulations.get(index);
+                format!(
+                    "articulation:{}:{}",
+                    articulation.map_or("", |a| a.name.as_str()),
+                    articulation
+                        .and_then(|a| a.model.links().get(link))
+                        .map_or("", |l| l.name.as_str())
+                )
+            }
             VisualTag::RobotLink { link, .. } => {
                 format!("link:{}", links.get(link).map_or("", |l| l.name.as_str()))
             }

@@ -1,5 +1,6 @@
-"""The shipped object set (`assets/objects`) is what `scripts/make_objects.py` makes: the
-script, run again, writes the same bytes; every mesh is closed and turned outward."""
+"""The shipped object set (`assets/objects`) is what `scripts/make_objects.py` makes, and the
+cabinet (`assets/cabinet`) what `scripts/make_cabinet.py` makes: each script, run again, writes
+the same bytes; every mesh is closed and turned outward."""
 
 from __future__ import annotations
 
@@ -23,6 +24,18 @@ def test_the_script_makes_exactly_the_shipped_files(tmp_path: Path) -> None:
     assert len([n for n in made if n.endswith(".obj")]) >= 10
     for name in made:
         assert (tmp_path / name).read_bytes() == (ASSETS / name).read_bytes(), name
+
+
+def test_the_cabinet_script_makes_exactly_the_shipped_cabinet(tmp_path: Path) -> None:
+    subprocess.run(
+        [sys.executable, str(REPO / "scripts" / "make_cabinet.py"), "--out", str(tmp_path)],
+        check=True,
+        capture_output=True,
+    )
+    shipped = REPO / "assets" / "cabinet"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in shipped.iterdir())
+    for path in tmp_path.iterdir():
+        assert path.read_bytes() == (shipped / path.name).read_bytes(), path.name
 
 
 def test_every_object_is_a_closed_outward_mesh_on_the_floor() -> None:

@@ -373,6 +373,13 @@ impl PandaEnv {
             self.sim
                 .set_object_pose(object.object, &object.position, &object.orientation)?;
         }
+        for articulation in &self.start.articulations {
+            self.sim.set_articulation(
+                articulation.articulation,
+                &articulation.pose,
+                &articulation.joint_positions,
+            )?;
+        }
         self.goal.copy_from_slice(&self.start.goal);
         self.elapsed = 0;
         self.status = Status::Running;

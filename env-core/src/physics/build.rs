@@ -154,6 +154,13 @@ impl Simulation {
             });
         }
 
+        // The articulated objects, their roots fixed.
+        let articulations = scene
+            .articulations
+            .iter()
+            .map(|spec| super::articulation::insert_articulation(&mut world, spec))
+            .collect::<Result<Vec<_>>>()?;
+
         // The robot, as one multibody.
         let options = UrdfLoaderOptions {
             make_roots_fixed: true,
@@ -256,6 +263,7 @@ impl Simulation {
             movable_joints,
             robot_colliders,
             objects,
+            articulations,
             floor_collider,
             platform_collider,
             time: 0.0,

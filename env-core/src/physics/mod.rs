@@ -10,6 +10,7 @@
 //! |---|---|---|
 //! | building | `build.rs` | [`Simulation::new`], [`Simulation::with_model`], [`Simulation::with_scene`] |
 //! | scene | `scene.rs` | [`Scene`], [`ObjectSpec`], [`ObjectId`]; object poses and properties; the `attach` shortcut grasp |
+//! | articulated objects | `articulation.rs` | [`ArticulationSpec`], [`ArticulationId`]: URDF objects with joints (a cabinet's drawer) |
 //! | shapes | `shape.rs` | [`ObjectShape`], [`ShapePart`]: boxes, spheres, cylinders, capsules, hulls, compounds |
 //! | control | `control.rs` | [`JointControl`]; joint commands, the gripper, teleporting the robot |
 //! | state | `state.rs` | [`BodyState`], [`JointState`], [`LinkState`]; joints, links, TCP, objects |
@@ -22,6 +23,7 @@
 //! Stepping ([`Simulation::step`], [`Simulation::step_control`]) and the blow-up checks
 //! ([`Simulation::max_body_speeds`], [`Simulation::is_finite`]) are here.
 
+mod articulation;
 mod build;
 mod contacts;
 mod control;
@@ -47,6 +49,7 @@ use crate::config::SimConfig;
 use crate::model::RobotModel;
 use crate::robot::Gripper;
 
+pub use articulation::{ArticulationId, ArticulationJoints, ArticulationSpec, IMPULSE_STICK_SPEED};
 pub use contacts::{ObjectContacts, ObjectTouch, PairContact};
 pub use control::JointControl;
 pub use grasp::{GripperGeometry, TopGrasp};
@@ -140,6 +143,8 @@ pub struct Simulation {
     robot_colliders: Vec<(ColliderHandle, usize)>,
     /// The scene's objects, in [`Scene::objects`] order.
     objects: Vec<SceneObject>,
+    /// The scene's articulated objects, in [`Scene::articulations`] order.
+    articulations: Vec<articulation::SceneArticulation>,
     floor_collider: ColliderHandle,
     platform_collider: Option<ColliderHandle>,
     time: f64,

@@ -9,7 +9,7 @@ use rapier3d::dynamics::FixedJointBuilder;
 
 use super::convert::{pose_from_na, pose_to_na, vec_to_na};
 use super::shape::ObjectShape;
-use super::{BodyState, SceneObject, Simulation};
+use super::{ArticulationSpec, BodyState, SceneObject, Simulation};
 use crate::config::{non_negative, positive, CubeConfig, PlatformConfig};
 use crate::error::{ensure_all_finite, Error, Result};
 
@@ -22,6 +22,9 @@ pub struct Scene {
     pub platform: Option<PlatformConfig>,
     /// The movable objects; an object's [`ObjectId`] is its position here.
     pub objects: Vec<ObjectSpec>,
+    /// The articulated objects (a cabinet with a drawer); an [`super::ArticulationId`] is a position
+    /// here.
+    pub articulations: Vec<ArticulationSpec>,
     /// A slippery floor: its friction coefficient in this world, combined with a touching
     /// body's by taking the smaller of the two, so every object slides on it as on ice of
     /// that friction whatever its own. `None`: the configured `physics.floor_friction`,
@@ -99,6 +102,19 @@ impl Scene {
                 return Err(Error::InvalidConfig {
                     field: field("name"),
                     reason: format!("`{}` is used twice", object.name),
+                });
+            }
+        }
+        for (i, articulation) in self.articulations.iter().enumerate() {
+            let field = format!("scene.articulations[{i}]");
+            articulation.validate(&field)?;
+            if self.articulations[..i]
+                .iter()
+                .any(|a| a.name == articulation.name)
+            {
+                return Err(Error::InvalidConfig {
+                    field: format!("{field}.name"),
+                    reason: format!("`{}` is used twice", articulation.name),
                 });
             }
         }

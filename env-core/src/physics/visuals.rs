@@ -59,6 +59,13 @@ pub enum VisualTag {
         /// The object's index.
         index: usize,
     },
+    /// A link of an articulated object.
+    Articulation {
+        /// The object's index in [`crate::physics::Scene::articulations`].
+        index: usize,
+        /// The link's index in its model's links.
+        link: usize,
+    },
     /// A robot link (index into [`crate::RobotModel::links`]).
     RobotLink {
         /// Link index.
@@ -106,6 +113,11 @@ impl Simulation {
         }
         for (index, object) in self.objects.iter().enumerate() {
             push(object.collider, VisualTag::Object { index });
+        }
+        for (index, articulation) in self.articulations.iter().enumerate() {
+            for &(handle, link) in &articulation.colliders {
+                push(handle, VisualTag::Articulation { index, link });
+            }
         }
         for &(handle, link) in &self.robot_colliders {
             let finger = self.gripper.as_ref().is_some_and(|g| g.is_finger(link));

@@ -289,6 +289,17 @@ pub struct ObjectStart {
     pub variant: Option<ObjectVariant>,
 }
 
+/// How one articulated object starts an episode.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ArticulationStart {
+    /// The object.
+    pub articulation: crate::physics::ArticulationId,
+    /// Its root link's pose (world frame).
+    pub pose: nalgebra::Isometry3<f64>,
+    /// Its joint positions (one per movable non-mimic joint, in its model's dof order).
+    pub joint_positions: Vec<f64>,
+}
+
 /// Which of a task's set of objects an object is for one episode, and its mass and friction.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ObjectVariant {
@@ -309,6 +320,8 @@ pub struct ObjectVariant {
 pub struct EpisodeStart {
     /// The objects to place.
     pub objects: Vec<ObjectStart>,
+    /// The articulated objects to place (their roots' poses and joint positions).
+    pub articulations: Vec<ArticulationStart>,
     /// The goal (the task's `goal_dim` entries).
     pub goal: Vec<f64>,
 }

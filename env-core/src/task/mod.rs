@@ -48,8 +48,8 @@ pub use base::objects::{ObjectEntry, ObjectFile};
 pub use config::{Randomization, Region, RewardType, TaskThresholds};
 pub use context::TaskContext;
 pub use episode::{
-    EpisodeStart, ObjectStart, ObjectVariant, ResetOptions, StepInfo, TaskInfo, Transition,
-    TASK_INFO_CAPACITY,
+    ArticulationStart, EpisodeStart, ObjectStart, ObjectVariant, ResetOptions, StepInfo, TaskInfo,
+    Transition, TASK_INFO_CAPACITY,
 };
 pub use flip::{Flip, FlipConfig};
 pub use lift::{Lift, LiftConfig};
