@@ -1,8 +1,9 @@
-"""Env-steps/s of PickObject beside PickAndPlace (issue 57's speed figure): the native vector
-env with 64 environments on 2 threads, random actions, interleaved rounds (every round
-measures every case once, in the same order), medians printed with their ratio to
-pick-and-place. Cases: PickAndPlace-v0, PickObject-v0 drawing from the shipped set, and
-PickObject-v0 with only the mug (16 convex parts, the most any shipped object has).
+"""Env-steps/s of PickObject and OpenDrawer beside PickAndPlace (issue 57's speed figures): the
+native vector env with 64 environments on 2 threads, random actions, interleaved rounds (every
+round measures every case once, in the same order), medians printed with their ratio to
+pick-and-place. Cases: PickAndPlace-v0, PickObject-v0 drawing from the shipped set,
+PickObject-v0 with only the mug (16 convex parts, the most any shipped object has), and
+OpenDrawer-v0 with the drawer's joint in a multibody (default) and as an impulse joint.
 
     .venv/bin/python scripts/bench_pick_object.py [--rounds 5] [--steps 200]
 """
@@ -24,6 +25,11 @@ CASES: dict[str, dict[str, object]] = {
     "PickObject-v0, the shipped set": {"task": "pick_object", "control_mode": "ee_pose"},
     "PickObject-v0, the mug only (16 parts)": {
         "task": {"name": "pick_object", "objects": ["mug"]},
+        "control_mode": "ee_pose",
+    },
+    "OpenDrawer-v0, multibody joint": {"task": "open_drawer", "control_mode": "ee_pose"},
+    "OpenDrawer-v0, impulse joint": {
+        "task": {"name": "open_drawer", "joints": "impulse"},
         "control_mode": "ee_pose",
     },
 }

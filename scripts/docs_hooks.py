@@ -30,6 +30,7 @@ PICTURE_STEPS = {
     "stack": 95,
     "peg_insertion": 62,
     "pick_object": 40,
+    "open_drawer": 30,
 }
 
 

@@ -40,11 +40,12 @@ TASKS = {
     "Flip": (4, 41, 200),
     "PegInsertion": (6, 56, 100),
     "PickObject": (3, 54, 100),
+    "OpenDrawer": (1, 40, 100),
 }
 
 #: The action size of each task's end-effector ids where it is not 4 (``ee``): the tasks whose
 #: hand must turn take ``ee_pose`` actions.
-EE_ACTIONS = {"PegInsertion": 7, "PickObject": 7}
+EE_ACTIONS = {"PegInsertion": 7, "PickObject": 7, "OpenDrawer": 7}
 
 
 def test_env_ids_and_spaces() -> None:

@@ -111,6 +111,11 @@ impl ArticulationSpec {
 pub struct ArticulationId(pub(super) usize);
 
 impl ArticulationId {
+    /// The first articulated object of a scene (before a task has looked it up by name).
+    pub(crate) fn first() -> Self {
+        Self(0)
+    }
+
     /// The object's position in [`crate::physics::Scene::articulations`].
     pub fn index(self) -> usize {
         self.0

@@ -390,6 +390,15 @@ impl EpisodeStart {
         self.goal.clear();
         self.goal.extend(goal);
     }
+
+    /// Sets the articulated objects' starts (after [`EpisodeStart::set`], which leaves them).
+    pub(crate) fn set_articulations(
+        &mut self,
+        articulations: impl IntoIterator<Item = ArticulationStart>,
+    ) {
+        self.articulations.clear();
+        self.articulations.extend(articulations);
+    }
 }
 
 /// Where the cube tasks' cubes start by default: on the floor in front of the robot, clear of

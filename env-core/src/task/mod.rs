@@ -20,7 +20,7 @@
 //!
 //! - [`registry`]: the tasks, their descriptors and configuration sections;
 //! - one file per task ([`pick_and_place`], [`reach`], [`lift`], [`stack`], [`push`],
-//!   [`slide`], [`flip`], [`peg_insertion`], [`pick_object`]);
+//!   [`slide`], [`flip`], [`peg_insertion`], [`pick_object`], [`open_drawer`]);
 //! - `base`: what tasks share;
 //! - [`context`], [`config`], [`episode`], [`observation`], [`reward`]: the types tasks are
 //!   made of.
@@ -32,6 +32,7 @@ pub mod episode;
 pub mod flip;
 pub mod lift;
 pub mod observation;
+pub mod open_drawer;
 pub mod peg_insertion;
 pub mod pick_and_place;
 pub mod pick_object;
@@ -57,6 +58,7 @@ pub use observation::{
     info_field, InfoField, InfoType, InfoValue, ObservationLayout, Slot, SlotSource, SlotSpec,
     COMMON_INFO_FIELDS,
 };
+pub use open_drawer::{DrawerJoints, OpenDrawer, OpenDrawerConfig};
 pub use peg_insertion::{PegInsertion, PegInsertionConfig};
 pub use pick_and_place::{PickAndPlace, PickAndPlaceConfig};
 pub use pick_object::{PickObject, PickObjectConfig};

@@ -252,6 +252,7 @@ tasks! {
     Flip => super::flip::Flip,
     PegInsertion => super::peg_insertion::PegInsertion,
     PickObject => super::pick_object::PickObject,
+    OpenDrawer => super::open_drawer::OpenDrawer,
 }
 
 impl TaskKind {

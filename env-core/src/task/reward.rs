@@ -137,6 +137,8 @@ pub struct RewardWeights {
     pub align: f64,
     /// Weight of peg insertion's `insert` term.
     pub insert: f64,
+    /// Weight of drawer opening's `open` term.
+    pub open: f64,
 }
 
 impl RewardWeights {
@@ -176,6 +178,7 @@ impl RewardWeights {
             "orient" => &mut self.orient,
             "align" => &mut self.align,
             "insert" => &mut self.insert,
+            "open" => &mut self.open,
             _ => return None,
         })
     }

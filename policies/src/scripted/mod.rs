@@ -16,12 +16,14 @@
 //! [`FlipExpert`] turns the cube by pushing it with the closed fingers; [`PegInsertionExpert`]
 //! picks the peg up across its width, turns it onto the hole's axis and pushes it in, steering
 //! its leading end; [`PickObjectExpert`] picks an object of any shape by the grasp the task
-//! plans for it and carries it to the goal. [`expert_for`] is the
+//! plans for it and carries it to the goal; [`OpenDrawerExpert`] closes the fingers on a
+//! drawer's knob and pulls it open. [`expert_for`] is the
 //! list, one line per task of the core's registry (`TaskKind`; the compiler asks for a new
 //! task's line).
 
 mod flip;
 mod grasp;
+mod open_drawer;
 mod params;
 mod peg_insertion;
 mod pick_and_place;
@@ -32,6 +34,7 @@ mod slide;
 mod stack;
 
 pub use flip::FlipExpert;
+pub use open_drawer::OpenDrawerExpert;
 pub use params::ScriptedParams;
 pub use peg_insertion::PegInsertionExpert;
 pub use pick_and_place::PickAndPlaceExpert;
@@ -88,6 +91,7 @@ pub fn expert_for(task: TaskKind) -> &'static dyn Expert {
         TaskKind::Flip => &FlipExpert,
         TaskKind::PegInsertion => &PegInsertionExpert,
         TaskKind::PickObject => &PickObjectExpert,
+        TaskKind::OpenDrawer => &OpenDrawerExpert,
     }
 }
 
