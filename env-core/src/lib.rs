@@ -25,6 +25,7 @@ pub mod physics;
 pub mod robot;
 pub mod sensor;
 pub mod task;
+pub mod urdf_object;
 pub mod vector;
 
 pub use config::{
@@ -50,6 +51,7 @@ pub use robot::Robot;
 pub use robot::{Gripper, RobotSpec};
 pub use sensor::{Sensor, SensorChain, TouchSensor};
 pub use task::{ObservationLayout, ResetOptions, RewardType, StepInfo, Task, TaskKind, Transition};
+pub use urdf_object::UrdfObject;
 pub use vector::{AutoresetMode, PandaVecEnv};
 
 /// Re-exported so users can name the math types of the API without a second nalgebra.

@@ -1,6 +1,6 @@
 //! Objects a task draws from a set per episode ([`ObjectEntry`] in its configuration, loaded
 //! into [`PickableObject`]s): a shipped object of `assets/objects` by name, or a user's mesh
-//! file (OBJ, STL or COLLADA) with its mass, friction and scale. Each is loaded once per
+//! file (OBJ, STL or COLLADA) or URDF file ([`UrdfObject`]) with its mass, friction and scale. Each is loaded once per
 //! process (a vector env of many copies, and every environment after the first, shares it):
 //! its collision shape (convex parts, decompositions cached on disk by [`ShapeCache`]), its
 //! bounding box and the top-down grasp the planner finds for it
@@ -20,6 +20,7 @@ use crate::assets::{shipped_object, ShippedObject, OBJECT_SET};
 use crate::config::{invalid, non_negative, positive};
 use crate::error::{Error, Result};
 use crate::physics::{GripperGeometry, MeshCollision, MeshFile, ObjectShape, ShapeCache, TopGrasp};
+use crate::urdf_object::{is_urdf, UrdfObject};
 
 /// Mass (kg) and friction of the shipped objects, in [`OBJECT_SET`]'s order: everyday masses
 /// (an empty plastic bottle and bowl) within what the Panda's friction grasp holds (the
@@ -46,8 +47,8 @@ const FILE_FRICTION: f64 = 1.0;
 pub const ROLLING_DAMPING: f64 = 5.0;
 
 /// One object of a task's set, as its configuration names it. In JSON, a shipped object's
-/// name (`"mug"`), a mesh file's path (`"/data/cup.obj"`: its mass 0.1 kg, friction 1, scale
-/// 1, decomposed), or a map `{"path": ..., "mass": ..., "friction": ..., "rolling_damping":
+/// name (`"mug"`), a mesh or URDF file's path (`"/data/cup.obj"`: its mass 0.1 kg (a URDF's
+/// own where it gives one), friction 1, scale 1, decomposed), or a map `{"path": ..., "mass": ..., "friction": ..., "rolling_damping":
 /// ..., "scale": ..., "collision": "decompose" | "parts" | "hull"}` (fields left out take
 /// those defaults).
 #[derive(Debug, Clone, PartialEq)]
@@ -62,11 +63,14 @@ pub enum ObjectEntry {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ObjectFile {
-    /// The file: `.obj`, `.stl` or `.dae`, coordinates in metres times `scale`, its base
-    /// resting on what the object stands on with its frame's z axis up.
+    /// The file: a mesh (`.obj`, `.stl` or `.dae`) or a URDF (`.urdf`: its links' collision
+    /// geometry, joined by fixed joints, [`UrdfObject`]), coordinates in metres times
+    /// `scale`, its base resting on what the object stands on with its frame's z axis up.
     pub path: PathBuf,
-    /// Mass (kg), spread uniformly.
-    pub mass: f64,
+    /// Mass (kg), spread uniformly; `None`: a URDF's own (its links' `<inertial>` masses)
+    /// where it gives one, else 0.1 kg.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mass: Option<f64>,
     /// Friction coefficient.
     pub friction: f64,
     /// Angular damping of the body (1/s): rolling resistance, which rapier lacks.
@@ -83,7 +87,7 @@ impl Default for ObjectFile {
     fn default() -> Self {
         Self {
             path: PathBuf::new(),
-            mass: FILE_MASS,
+            mass: None,
             friction: FILE_FRICTION,
             rolling_damping: ROLLING_DAMPING,
             scale: 1.0,
@@ -112,14 +116,14 @@ impl ObjectEntry {
         }
     }
 
-    /// Mass (kg), friction and rolling damping (1/s).
-    fn material(&self) -> (f64, f64, f64) {
+    /// Mass (kg; `None` where the file decides), friction and rolling damping (1/s).
+    fn material(&self) -> (Option<f64>, f64, f64) {
         match self {
             ObjectEntry::Shipped(name) => SHIPPED_PROPERTIES
                 .iter()
                 .find(|(n, _, _)| n == name)
-                .map_or((FILE_MASS, FILE_FRICTION, ROLLING_DAMPING), |&(_, m, f)| {
-                    (m, f, ROLLING_DAMPING)
+                .map_or((None, FILE_FRICTION, ROLLING_DAMPING), |&(_, m, f)| {
+                    (Some(m), f, ROLLING_DAMPING)
                 }),
             ObjectEntry::File(file) => (file.mass, file.friction, file.rolling_damping),
         }
@@ -129,7 +133,9 @@ impl ObjectEntry {
     /// errors (`task.objects[3]`).
     pub(crate) fn load(&self, field: &str) -> Result<Arc<PickableObject>> {
         let (mass, friction, rolling_damping) = self.material();
-        positive(&format!("{field}.mass"), mass)?;
+        if let Some(mass) = mass {
+            positive(&format!("{field}.mass"), mass)?;
+        }
         non_negative(&format!("{field}.friction"), friction)?;
         non_negative(&format!("{field}.rolling_damping"), rolling_damping)?;
         let (key, mesh, bytes) = match self {
@@ -138,8 +144,8 @@ impl ObjectEntry {
                     invalid(
                         field,
                         format!(
-                            "`{name}` is no shipped object ({}) and not a mesh file's path \
-                             (.obj, .stl or .dae)",
+                            "`{name}` is no shipped object ({}) and not a mesh or URDF \
+                             file's path (.obj, .stl, .dae or .urdf)",
                             OBJECT_SET
                                 .iter()
                                 .map(|o| o.name)
@@ -198,14 +204,25 @@ impl ObjectEntry {
             Some(geometry) => geometry,
             None => {
                 let cache = ShapeCache::default_location();
-                let shape = mesh.load_bytes(&bytes, field, &cache)?.shape;
-                let geometry = Arc::new(Geometry::of(shape, field)?);
+                let (shape, file_mass) = if is_urdf(&mesh.path) {
+                    let scale = mesh.scale[0];
+                    let urdf = UrdfObject::load(&mesh.path, scale, &mesh.collision, field, &cache)?;
+                    (urdf.shape, urdf.mass)
+                } else {
+                    (mesh.load_bytes(&bytes, field, &cache)?.shape, 0.0)
+                };
+                let geometry = Arc::new(Geometry::of(shape, file_mass, field)?);
                 if let Ok(mut m) = memo().lock() {
                     m.insert(key, geometry.clone());
                 }
                 geometry
             }
         };
+        let mass = mass.unwrap_or(if geometry.file_mass > 0.0 {
+            geometry.file_mass
+        } else {
+            FILE_MASS
+        });
         Ok(Arc::new(PickableObject {
             label: self.label(),
             geometry,
@@ -244,10 +261,12 @@ pub(crate) struct Geometry {
     pub(crate) high: Vector3<f64>,
     /// The planned top-down grasp.
     pub(crate) grasp: TopGrasp,
+    /// The mass the file gives (a URDF's), 0 where it gives none.
+    pub(crate) file_mass: f64,
 }
 
 impl Geometry {
-    fn of(shape: ObjectShape, field: &str) -> Result<Self> {
+    fn of(shape: ObjectShape, file_mass: f64, field: &str) -> Result<Self> {
         let (low, high) = shape.bounds();
         let grasp = shape.top_grasp(&GripperGeometry::PANDA)?.ok_or_else(|| {
             invalid(
@@ -268,6 +287,7 @@ impl Geometry {
             low,
             high,
             grasp,
+            file_mass,
         })
     }
 }
@@ -321,11 +341,14 @@ impl<'de> Deserialize<'de> for ObjectEntry {
 }
 
 impl ObjectEntry {
-    /// The entry a string names: a mesh file's path where it ends in `.obj`, `.stl` or
-    /// `.dae` (any case), else a shipped object's name.
+    /// The entry a string names: a file's path where it ends in `.obj`, `.stl`, `.dae` or
+    /// `.urdf` (any case), else a shipped object's name.
     pub fn from_name(s: &str) -> Self {
         let lower = s.to_ascii_lowercase();
-        if [".obj", ".stl", ".dae"].iter().any(|e| lower.ends_with(e)) {
+        if [".obj", ".stl", ".dae", ".urdf"]
+            .iter()
+            .any(|e| lower.ends_with(e))
+        {
             ObjectEntry::File(ObjectFile {
                 path: s.into(),
                 ..ObjectFile::default()
