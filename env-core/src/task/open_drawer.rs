@@ -63,9 +63,11 @@ use crate::model::RobotModel;
 use crate::physics::{
     ArticulationId, ArticulationJoints, ArticulationSpec, BodyState, Scene, Simulation,
 };
-use crate::task::base::{canonical, norm, term_field};
+use crate::task::base::{
+    canonical, compute_reach_grasp_rewards, norm, term_field, REACH_GRASP_CONTEXT,
+};
 use crate::task::config::RewardType;
-use crate::task::reward::{closeness, compute_batch_with, RewardTerm};
+use crate::task::reward::{closeness, RewardTerm};
 
 /// Size of each goal: the drawer's opening.
 const GOAL_DIM: usize = 1;
@@ -262,7 +264,7 @@ impl TaskSpec for OpenDrawer {
         summary: "pull a cabinet's drawer open by its knob to a goal opening",
         info_fields: &INFO_FIELDS,
         reward_terms: &[REACH, GRASP, OPEN],
-        reward_context_keys: &["reward_reach", "reward_grasp"],
+        reward_context_keys: &REACH_GRASP_CONTEXT,
     };
 
     // The cabinet is turned: the end-effector ids turn the hand to its knob.
@@ -537,16 +539,12 @@ impl Task for OpenDrawer {
         contexts: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
-        let needs_context = self.context.reward_type == RewardType::Dense;
-        compute_batch_with(
-            achieved,
-            desired,
+        compute_reach_grasp_rewards(
+            self.context.reward_type,
             GOAL_DIM,
-            contexts,
-            Self::DESCRIPTOR.reward_context_keys.len(),
-            needs_context,
+            (achieved, desired, contexts),
             out,
-            |a, d, row| self.judge(a, d, row[0], row[1]).reward,
+            |a, d, reach, grasp| self.judge(a, d, reach, grasp).reward,
         )
     }
 }

@@ -76,10 +76,12 @@ use super::{EpisodeStart, ResetOptions, SlotSpec, Task, Verdict, View};
 use crate::config::{invalid, PlatformConfig};
 use crate::error::Result;
 use crate::physics::{BodyState, ObjectId, ObjectShape, ObjectSpec, Scene, ShapePart, Simulation};
-use crate::task::base::{canonical, norm, term_field};
+use crate::task::base::{
+    canonical, compute_reach_grasp_rewards, norm, term_field, REACH_GRASP_CONTEXT,
+};
 use crate::task::config::RewardType;
 use crate::task::observation::{info_field, InfoField, InfoType};
-use crate::task::reward::{closeness, compute_batch_with, RewardTerm};
+use crate::task::reward::{closeness, RewardTerm};
 
 /// Size of each goal: two positions, the peg's ends.
 const GOAL_DIM: usize = 6;
@@ -325,7 +327,7 @@ impl TaskSpec for PegInsertion {
         summary: "pick up the peg, turn it to the hole in the box and insert it",
         info_fields: &INFO_FIELDS,
         reward_terms: &[REACH, GRASP, ALIGN, INSERT],
-        reward_context_keys: &["reward_reach", "reward_grasp"],
+        reward_context_keys: &REACH_GRASP_CONTEXT,
     };
 
     // The peg lies at any yaw and the hole's axis is turned: its end-effector ids turn the hand.
@@ -693,16 +695,12 @@ impl Task for PegInsertion {
         contexts: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
-        let needs_context = self.context.reward_type == RewardType::Dense;
-        compute_batch_with(
-            achieved,
-            desired,
+        compute_reach_grasp_rewards(
+            self.context.reward_type,
             GOAL_DIM,
-            contexts,
-            Self::DESCRIPTOR.reward_context_keys.len(),
-            needs_context,
+            (achieved, desired, contexts),
             out,
-            |a, d, row| self.judge(a, d, row[0], row[1]).reward,
+            |a, d, reach, grasp| self.judge(a, d, reach, grasp).reward,
         )
     }
 }

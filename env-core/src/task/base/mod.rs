@@ -6,8 +6,36 @@
 pub(crate) mod cube;
 pub mod objects;
 
+use crate::error::Result;
+use crate::task::config::RewardType;
 use crate::task::observation::{info_field, InfoField, InfoType};
-use crate::task::reward::RewardTerm;
+use crate::task::reward::{compute_batch_with, RewardTerm};
+
+/// The reward context of the tasks whose dense reward reads its weighted `reach` and `grasp`
+/// terms back from the step's info and computes the rest from the goals.
+pub(crate) const REACH_GRASP_CONTEXT: [&str; 2] = ["reward_reach", "reward_grasp"];
+
+/// `Task::compute_rewards` of such a task: `reward(achieved, desired, reach, grasp)` of each of
+/// the `n` transitions (`goal_dim` entries per goal; contexts rows of
+/// [`REACH_GRASP_CONTEXT`], needed with the dense reward) into `out`.
+pub(crate) fn compute_reach_grasp_rewards(
+    reward_type: RewardType,
+    goal_dim: usize,
+    (achieved, desired, contexts): (&[f32], &[f32], &[f32]),
+    out: &mut [f32],
+    reward: impl Fn(&[f32], &[f32], f32, f32) -> f32,
+) -> Result<()> {
+    compute_batch_with(
+        achieved,
+        desired,
+        goal_dim,
+        contexts,
+        REACH_GRASP_CONTEXT.len(),
+        reward_type == RewardType::Dense,
+        out,
+        |a, d, row| reward(a, d, row[0], row[1]),
+    )
+}
 
 /// The info entry reporting a reward term, weighted.
 pub(crate) const fn term_field(term: RewardTerm) -> InfoField {
