@@ -52,7 +52,7 @@ from panda_rapier.agents.student_model import is_student
 from panda_rapier.cli import main
 from panda_rapier.learning.imitation import collect
 from panda_rapier.learning.normalization import NormalizedFlatten, fit_normalizers
-from panda_rapier.registration import env_config
+from panda_rapier.registration import env_config, variant
 from panda_rapier.sb3 import make_vec_env
 
 th.set_num_threads(1)
@@ -389,6 +389,20 @@ EMULATED_CPUS = ("Haswell-v4", "Nehalem")
 #: 358 s of CI's budget; Nehalem's took 75 s.
 EMULATED_STEPS = {"Haswell-v4": 70, "Nehalem": 280}
 
+
+#: The models the emulated CPUs run: every shipped one but those whose task loads an object set
+#: (PickObject: reading ten meshes and planning their grasps takes about 4 s natively and
+#: minutes under qemu, which tripled these tests' time; the physics, maths routines and
+#: network they would exercise are those of the other models). Caching the grasp plans on
+#: disk with the decompositions would let them back in.
+def _task(name: str) -> str:
+    run = read_run_info(MODELS / name)
+    assert run is not None
+    return str(variant(run["env_id"])["task"])
+
+
+EMULATED = [name for name in SHIPPED if _task(name) != "pick_object"]
+
 _EMULATED = r"""
 import json, sys
 from pathlib import Path
@@ -416,10 +430,10 @@ print(json.dumps(results))
 def test_emulated_cpus_repeat_every_shipped_episode(tmp_path: Path, cpu: str) -> None:
     """Under qemu emulating a CPU without AVX-512 (Haswell) and one without AVX (Nehalem), the
     physics, glibc's maths routines and the native network pick their CPU-specific code for
-    that CPU; every shipped model's first episodes (EMULATED_STEPS env steps' worth) must
-    still repeat exactly. (The weights
+    that CPU; every shipped model's first episodes (EMULATED_STEPS env steps' worth; the
+    models of EMULATED) must still repeat exactly. (The weights
     go through PolicyNetwork.save, so the emulated process never imports torch.)"""
-    for name in SHIPPED:
+    for name in EMULATED:
         PolicyNetwork.from_zip(MODELS / name).save(tmp_path / f"{Path(name).stem}.npz")
         run = read_run_info(MODELS / name)
         assert run is not None
@@ -430,7 +444,7 @@ def test_emulated_cpus_repeat_every_shipped_episode(tmp_path: Path, cpu: str) ->
     out = subprocess.run(command, capture_output=True, text=True, timeout=540)
     assert out.returncode == 0, out.stderr[-2000:]
     results = json.loads(out.stdout.strip().splitlines()[-1])
-    assert len(results) == len(SHIPPED)
+    assert len(results) == len(EMULATED)
     recorded = json.loads((MODELS / "evaluations.json").read_text())
     here = evaluation_environment(NATIVE)
     for name, (kind, passed, details) in results.items():
