@@ -270,7 +270,6 @@ impl Renderer {
                     self.look.platform
                 }
                 VisualTag::Object { index } => self.look.objects[index % OBJECTS.len()],
-                // A cabinet's carcass in wood, its drawer (and any further link) lighter.
                 VisualTag::Articulation { link: 0, .. } => CARCASS,
                 VisualTag::Articulation { .. } => DRAWER,
                 VisualTag::RobotLink { finger: true, .. } => HAND,

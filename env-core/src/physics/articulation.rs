@@ -22,14 +22,16 @@ use rapier3d::math::Vector;
 use rapier3d::pipeline::PhysicsWorld;
 use rapier3d_urdf::{UrdfLoaderOptions, UrdfMultibodyOptions, UrdfRobot};
 
-use super::convert::{pose_from_na, pose_to_na, vec_to_na};
+use super::convert::{pose_from_na, pose_to_na, vec_from_na, vec_to_na};
 use super::{BodyState, JointState, Simulation, OBJECT_GROUP};
 use crate::config::non_negative;
 use crate::error::{ensure_all_finite, Error, Result};
 use crate::model::{JointType, RobotModel};
 
-/// How an articulated object's joints are simulated (`joints` of [`ArticulationSpec`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// How an articulated object's joints are simulated (`joints` of [`ArticulationSpec`];
+/// `"multibody"` or `"impulse"` in configurations).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum ArticulationJoints {
     /// One rapier multibody in reduced coordinates: exact joints, the URDF's damping and dry
     /// friction per degree of freedom.
@@ -127,11 +129,13 @@ impl ArticulationId {
 enum JointSlot {
     /// A multibody link's joint: its coordinate in `coords()` (0 along x, 3 about x).
     Multibody { link_id: usize, coord: usize },
-    /// An impulse joint between two bodies; its frames' x axis is the URDF axis.
+    /// An impulse joint between two bodies; its frames' x axis is the URDF axis, along which
+    /// it slides (`prismatic`) or about which it turns.
     Impulse {
         handle: ImpulseJointHandle,
         parent: RigidBodyHandle,
         child: RigidBodyHandle,
+        prismatic: bool,
     },
 }
 
@@ -268,6 +272,7 @@ pub(super) fn insert_articulation(
                     handle: handle.joint,
                     parent: handle.link1,
                     child: handle.link2,
+                    prismatic: axis == JointAxis::LinX,
                 });
             }
         }
@@ -360,7 +365,8 @@ impl Simulation {
                 handle,
                 parent,
                 child,
-            }) => self.impulse_joint_state(handle, parent, child, joint, id),
+                prismatic,
+            }) => self.impulse_joint_state(handle, parent, child, prismatic),
         })
     }
 
@@ -369,8 +375,7 @@ impl Simulation {
         handle: ImpulseJointHandle,
         parent: RigidBodyHandle,
         child: RigidBodyHandle,
-        joint: usize,
-        id: ArticulationId,
+        prismatic: bool,
     ) -> JointState {
         let nan = JointState {
             position: f64::NAN,
@@ -387,13 +392,7 @@ impl Simulation {
         let frame2 = pose_to_na(c.position()) * pose_to_na(&j.data.local_frame2);
         let relative = frame1.inverse() * frame2;
         let axis = frame1.rotation * Vector3::x();
-        let anchor = rapier3d::math::Vector::new(
-            frame2.translation.x as f32,
-            frame2.translation.y as f32,
-            frame2.translation.z as f32,
-        );
-        let prismatic =
-            self.scene.articulations[id.0].model.joints()[joint].joint_type == JointType::Prismatic;
+        let anchor = vec_from_na(&frame2.translation.vector);
         if prismatic {
             let v = vec_to_na(c.velocity_at_point(anchor)) - vec_to_na(p.velocity_at_point(anchor));
             JointState {
@@ -425,15 +424,7 @@ impl Simulation {
         let mut current = link;
         loop {
             if let Some(body) = art.link_bodies[current] {
-                let base = self.body_state(body);
-                let pose = Isometry3::from_parts(base.position.into(), base.orientation) * offset;
-                let lever = pose.translation.vector - base.position;
-                return Ok(BodyState {
-                    position: pose.translation.vector,
-                    orientation: pose.rotation,
-                    linear_velocity: base.linear_velocity + base.angular_velocity.cross(&lever),
-                    angular_velocity: base.angular_velocity,
-                });
+                return Ok(self.body_state_at(body, &offset));
             }
             let Some(joint) = model.links()[current].parent_joint else {
                 return Ok(BodyState::nan());
@@ -454,20 +445,23 @@ impl Simulation {
     ) -> Result<()> {
         ensure_all_finite("articulation pose", pose.translation.vector.as_slice())?;
         ensure_all_finite("articulation pose", pose.rotation.coords.as_slice())?;
-        let art = self.scene_articulation(id)?.clone();
-        let model = Arc::clone(&self.scene.articulations[id.0].model);
+        self.scene_articulation(id)?;
+        // Disjoint borrows: the slots and model are read while the world is written.
+        let art = &self.articulations[id.0];
+        let model = &self.scene.articulations[id.0].model;
+        let world = &mut self.world;
         model.validate_configuration(q)?;
         let mut q = q.to_vec();
         model.clamp_configuration(&mut q);
         let mut positions = vec![0.0; model.joints().len()];
         model.expand_positions(&q, &mut positions);
 
-        if let Some(rb) = self.world.bodies.get_mut(art.root) {
+        if let Some(rb) = world.bodies.get_mut(art.root) {
             rb.set_position(pose_from_na(pose), true);
         }
         if let Some(mb) = art
             .multibody
-            .and_then(|m| self.world.multibody_joints.get_multibody_mut(m))
+            .and_then(|m| world.multibody_joints.get_multibody_mut(m))
         {
             let mut displacement = vec![0.0f32; mb.ndofs()];
             for (joint, slot) in art.joints.iter().enumerate() {
@@ -481,8 +475,8 @@ impl Simulation {
             }
             mb.apply_displacements(&displacement);
             mb.generalized_velocity_mut().fill(0.0);
-            mb.forward_kinematics(&self.world.bodies, true);
-            mb.update_rigid_bodies(&mut self.world.bodies, true);
+            mb.forward_kinematics(&world.bodies, true);
+            mb.update_rigid_bodies(&mut world.bodies, true);
         }
         // Impulse joints: each child placed from its parent, parents first.
         for &joint in model.topological_joints() {
@@ -490,17 +484,16 @@ impl Simulation {
                 handle,
                 parent,
                 child,
+                prismatic,
             }) = art.joints[joint]
             else {
                 continue;
             };
-            let (Some(j), Some(p)) = (
-                self.world.impulse_joints.get(handle),
-                self.world.bodies.get(parent),
-            ) else {
+            let (Some(j), Some(p)) = (world.impulse_joints.get(handle), world.bodies.get(parent))
+            else {
                 continue;
             };
-            let motion = if model.joints()[joint].joint_type == JointType::Prismatic {
+            let motion = if prismatic {
                 Isometry3::from_parts(
                     Translation3::new(positions[joint], 0.0, 0.0),
                     UnitQuaternion::identity(),
@@ -512,12 +505,12 @@ impl Simulation {
                 * pose_to_na(&j.data.local_frame1)
                 * motion
                 * pose_to_na(&j.data.local_frame2).inverse();
-            if let Some(rb) = self.world.bodies.get_mut(child) {
+            if let Some(rb) = world.bodies.get_mut(child) {
                 rb.set_position(pose_from_na(&placed), true);
             }
         }
         for body in art.link_bodies.iter().flatten() {
-            if let Some(rb) = self.world.bodies.get_mut(*body) {
+            if let Some(rb) = world.bodies.get_mut(*body) {
                 rb.set_linvel(Vector::ZERO, true);
                 rb.set_angvel(Vector::ZERO, true);
                 rb.reset_forces(true);

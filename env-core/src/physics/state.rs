@@ -171,6 +171,24 @@ impl Simulation {
         }
     }
 
+    /// Pose and velocity of the frame at `offset` in body `handle`'s frame, moving with it.
+    pub(super) fn body_state_at(
+        &self,
+        handle: RigidBodyHandle,
+        offset: &Isometry3<f64>,
+    ) -> BodyState {
+        let body = self.body_state(handle);
+        let pose = Isometry3::from_parts(Translation3::from(body.position), body.orientation);
+        let frame = pose * offset;
+        let lever = frame.translation.vector - body.position;
+        BodyState {
+            position: frame.translation.vector,
+            orientation: frame.rotation,
+            linear_velocity: body.linear_velocity + body.angular_velocity.cross(&lever),
+            angular_velocity: body.angular_velocity,
+        }
+    }
+
     /// Pose and velocity of link `index`. Frame-only links without a body of their own (such as
     /// the flange) are placed by the fixed transforms to their nearest ancestor with a body.
     pub(super) fn link_body_state(&self, index: usize) -> BodyState {
@@ -178,17 +196,7 @@ impl Simulation {
         let mut link = index;
         loop {
             if let Some(handle) = self.link_bodies[link] {
-                let body = self.body_state(handle);
-                let pose =
-                    Isometry3::from_parts(Translation3::from(body.position), body.orientation);
-                let frame = pose * offset;
-                let lever = frame.translation.vector - body.position;
-                return BodyState {
-                    position: frame.translation.vector,
-                    orientation: frame.rotation,
-                    linear_velocity: body.linear_velocity + body.angular_velocity.cross(&lever),
-                    angular_velocity: body.angular_velocity,
-                };
+                return self.body_state_at(handle, &offset);
             }
             let Some(j) = self.model.links()[link].parent_joint else {
                 // A root without a body: it is where the base was put.

@@ -391,13 +391,36 @@ impl EpisodeStart {
         self.goal.extend(goal);
     }
 
-    /// Sets the articulated objects' starts (after [`EpisodeStart::set`], which leaves them).
-    pub(crate) fn set_articulations(
+    /// Sets the articulated objects' starts, each its id, root pose and joint positions (after
+    /// [`EpisodeStart::set`], which leaves them), into the kept buffers: no allocation after the
+    /// first episode.
+    pub(crate) fn set_articulations<'a>(
         &mut self,
-        articulations: impl IntoIterator<Item = ArticulationStart>,
+        articulations: impl IntoIterator<
+            Item = (
+                crate::physics::ArticulationId,
+                nalgebra::Isometry3<f64>,
+                &'a [f64],
+            ),
+        >,
     ) {
-        self.articulations.clear();
-        self.articulations.extend(articulations);
+        let mut n = 0;
+        for (articulation, pose, q) in articulations {
+            if n == self.articulations.len() {
+                self.articulations.push(ArticulationStart {
+                    articulation,
+                    pose,
+                    joint_positions: Vec::new(),
+                });
+            }
+            let start = &mut self.articulations[n];
+            start.articulation = articulation;
+            start.pose = pose;
+            start.joint_positions.clear();
+            start.joint_positions.extend_from_slice(q);
+            n += 1;
+        }
+        self.articulations.truncate(n);
     }
 }
 

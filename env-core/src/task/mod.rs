@@ -58,7 +58,7 @@ pub use observation::{
     info_field, InfoField, InfoType, InfoValue, ObservationLayout, Slot, SlotSource, SlotSpec,
     COMMON_INFO_FIELDS,
 };
-pub use open_drawer::{DrawerJoints, OpenDrawer, OpenDrawerConfig};
+pub use open_drawer::{OpenDrawer, OpenDrawerConfig};
 pub use peg_insertion::{PegInsertion, PegInsertionConfig};
 pub use pick_and_place::{PickAndPlace, PickAndPlaceConfig};
 pub use pick_object::{PickObject, PickObjectConfig};

@@ -53,7 +53,7 @@ use serde::{Deserialize, Serialize};
 
 use super::config::{validate_range, Range, Region};
 use super::context::TaskContext;
-use super::episode::{ArticulationStart, TaskInfo};
+use super::episode::TaskInfo;
 use super::observation::{info_field, InfoField, InfoType};
 use super::registry::{TaskDescriptor, TaskSpec};
 use super::{EpisodeStart, GoalMarker, ResetOptions, SlotSpec, Task, Verdict, View};
@@ -119,6 +119,9 @@ const INFO_FIELDS: [InfoField; 4] = [
     term_field(OPEN),
 ];
 
+/// Where `handle_relative_position` is among the task's slots.
+const HANDLE_RELATIVE_POSITION: usize = 3;
+
 /// The task's slots, after the robot's.
 const SLOTS: [SlotSpec; 6] = [
     SlotSpec {
@@ -153,30 +156,18 @@ const SLOTS: [SlotSpec; 6] = [
     },
 ];
 
-/// How the drawer's joint is simulated (`task.joints`: `"multibody"` or `"impulse"`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum DrawerJoints {
-    /// A rapier multibody (reduced coordinates).
-    #[default]
-    Multibody,
-    /// Impulse joints between free bodies.
-    Impulse,
-}
-
-impl<'de> Deserialize<'de> for DrawerJoints {
-    fn deserialize<D: serde::Deserializer<'de>>(
-        deserializer: D,
-    ) -> std::result::Result<Self, D::Error> {
-        // By hand, so that a wrong value's message names the option.
-        let value = String::deserialize(deserializer)?;
-        match value.as_str() {
-            "multibody" => Ok(Self::Multibody),
-            "impulse" => Ok(Self::Impulse),
-            other => Err(serde::de::Error::custom(format!(
-                "task.joints must be \"multibody\" or \"impulse\", got {other:?}"
-            ))),
-        }
+/// `task.joints` read by hand, so that a wrong value's message names the option (serde's
+/// "unknown variant" names none).
+fn deserialize_joints<'de, D: serde::Deserializer<'de>>(
+    deserializer: D,
+) -> std::result::Result<ArticulationJoints, D::Error> {
+    let value = String::deserialize(deserializer)?;
+    match value.as_str() {
+        "multibody" => Ok(ArticulationJoints::Multibody),
+        "impulse" => Ok(ArticulationJoints::Impulse),
+        other => Err(serde::de::Error::custom(format!(
+            "task.joints must be \"multibody\" or \"impulse\", got {other:?}"
+        ))),
     }
 }
 
@@ -192,8 +183,9 @@ pub struct OpenDrawerConfig {
     pub drawer_start: Range,
     /// Range (m) the goal opening is drawn from.
     pub goal_opening: Range,
-    /// How the drawer's joint is simulated.
-    pub joints: DrawerJoints,
+    /// How the drawer's joint is simulated: `"multibody"` (default) or `"impulse"`.
+    #[serde(deserialize_with = "deserialize_joints")]
+    pub joints: ArticulationJoints,
 }
 
 impl Default for OpenDrawerConfig {
@@ -206,7 +198,7 @@ impl Default for OpenDrawerConfig {
             cabinet_yaw_range: [-0.3, 0.3],
             drawer_start: [0.0, 0.05],
             goal_opening: [0.15, 0.2],
-            joints: DrawerJoints::Multibody,
+            joints: ArticulationJoints::Multibody,
         }
     }
 }
@@ -228,12 +220,14 @@ fn cabinet() -> Result<Arc<RobotModel>> {
 }
 
 /// The cabinet's facts the task needs: its model, the drawer's joint and its travel, the
-/// knob's link.
+/// knob's link, the root link and the drawer's way out in the root's frame.
 #[derive(Debug, Clone)]
 struct Cabinet {
     model: Arc<RobotModel>,
     joint: usize,
     handle: usize,
+    root: usize,
+    out: Vector3<f64>,
     travel: f64,
 }
 
@@ -242,11 +236,17 @@ impl Cabinet {
         let model = cabinet()?;
         let joint = model.joint_index(DRAWER_JOINT)?;
         let handle = model.link_index(HANDLE_LINK)?;
-        let travel = model.joints()[joint].upper;
+        let info = &model.joints()[joint];
+        let travel = info.upper;
+        // The drawer's joint hangs off the root link.
+        let out = info.origin.rotation * info.axis;
+        let root = model.root_link();
         Ok(Self {
             model,
             joint,
             handle,
+            root,
+            out,
             travel,
         })
     }
@@ -373,11 +373,6 @@ impl OpenDrawer {
     }
 }
 
-/// The slot `name`'s range in the flat observation.
-fn slot(view: &View<'_>, name: &str) -> std::ops::Range<usize> {
-    view.layout.slot(name).unwrap_or(0..0)
-}
-
 impl Task for OpenDrawer {
     fn descriptor(&self) -> &'static TaskDescriptor {
         &Self::DESCRIPTOR
@@ -401,10 +396,7 @@ impl Task for OpenDrawer {
                     UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::PI),
                 ),
                 friction: 1.0,
-                joints: match self.section.joints {
-                    DrawerJoints::Multibody => ArticulationJoints::Multibody,
-                    DrawerJoints::Impulse => ArticulationJoints::Impulse,
-                },
+                joints: self.section.joints,
             }],
             ..Scene::default()
         }
@@ -452,11 +444,7 @@ impl Task for OpenDrawer {
             UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw),
         );
         start.set([], [lerp(s.goal_opening, goal_u)]);
-        start.set_articulations([ArticulationStart {
-            articulation: self.id(),
-            pose,
-            joint_positions: vec![lerp(s.drawer_start, start_u)],
-        }]);
+        start.set_articulations([(self.id(), pose, &[lerp(s.drawer_start, start_u)][..])]);
     }
 
     fn observe(
@@ -467,23 +455,22 @@ impl Task for OpenDrawer {
         achieved: &mut [f64],
         extras: &mut [f64],
     ) {
-        let (joint, handle) = self
-            .cabinet
-            .as_ref()
-            .map_or((0, 0), |c| (c.joint, c.handle));
+        let Some(cabinet) = &self.cabinet else {
+            return;
+        };
         let id = self.id();
         let nan = f64::NAN;
         let drawer = sim
-            .articulation_joint_state(id, joint)
+            .articulation_joint_state(id, cabinet.joint)
             .map_or((nan, nan), |s| (s.position, s.velocity));
         let knob = sim
-            .articulation_link_state(id, handle)
+            .articulation_link_state(id, cabinet.handle)
             .unwrap_or_else(|_| BodyState::nan());
         let root = sim
-            .articulation_link_state(id, 0)
+            .articulation_link_state(id, cabinet.root)
             .unwrap_or_else(|_| BodyState::nan());
         achieved[0] = drawer.0;
-        let direction = root.orientation * Vector3::x();
+        let direction = root.orientation * cabinet.out;
         let relative = knob.position - tcp.position;
         let values: [&[f64]; 6] = [
             &[drawer.0],
@@ -506,7 +493,7 @@ impl Task for OpenDrawer {
         let obs = view.observation;
         let l = view.layout;
         let w = &self.context.reward_weights;
-        let distance = norm(&obs[slot(view, "handle_relative_position")]);
+        let distance = norm(&obs[l.task_slot(HANDLE_RELATIVE_POSITION)]);
         let width = obs[l.robot_slot(crate::task::observation::GRIPPER_WIDTH).start] as f64;
         let is_grasped = distance <= GRASP_REACH && width <= GRASP_WIDTH;
         let reach = w.reach as f32 * closeness(distance);
@@ -566,6 +553,14 @@ mod tests {
             &task(),
             include_str!("open_drawer.rs"),
             42,
+        );
+    }
+
+    #[test]
+    fn the_relative_position_index_names_its_slot() {
+        assert_eq!(
+            SLOTS[HANDLE_RELATIVE_POSITION].name,
+            "handle_relative_position"
         );
     }
 
