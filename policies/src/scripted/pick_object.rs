@@ -38,13 +38,29 @@ const IN_HAND: f64 = 0.03;
 const DESCEND_SPEED: f64 = 0.5;
 /// Speed of the open hand rising off the placed object until its fingertips clear it.
 const RETREAT_SPEED: f64 = 0.3;
+/// An object is off the ground with the lowest corner of its box this high (m) above the
+/// surface under it.
+const ALOFT: f64 = 0.004;
+/// A held object that has landed is let go once it moves slower than this (m/s) relative to
+/// the hand.
+const LANDED_SPEED: f64 = 0.05;
+/// Letting go, the hand rises this much (m)...
+const UNJAM_RISE: f64 = 0.003;
+/// ...at this speed (fraction of a full action), unless the object is slender: higher than
+/// this many times its narrow side.
+const UNJAM_SPEED: f64 = 0.1;
+/// (See [`UNJAM_SPEED`].)
+const SLENDER: f64 = 2.0;
 /// A held object counts as settled moving slower than this (m/s) relative to the hand.
 const SETTLED_SWING: f64 = 0.03;
 /// Closing fingers slower than this (m/s) are stopped by what they touch.
 const BLOCKED_FINGERS: f64 = 0.005;
 /// An object stands upright with its z axis within this cosine of vertical (about 4 degrees)...
 const UPRIGHT: f64 = 0.9975;
-/// ...pressed down onto its base by at most this much (m)...
+/// ...or its centre is within this (m) of its resting height; else it is pressed down by at
+/// most...
+const ON_BASE: f64 = 0.003;
+/// ...this much (m)...
 const MAX_PRESS: f64 = 0.012;
 /// ...at this speed (fraction of a full action).
 const PRESS_SPEED: f64 = 0.2;
@@ -52,6 +68,8 @@ const PRESS_SPEED: f64 = 0.2;
 const STEADY_FINGERS: f64 = 0.05;
 /// Objects whose centre lies within this (m) of the grasp are carried at full speed...
 const SWING_LEVER: f64 = 0.03;
+/// ...and those whose centre lies within this (m) of it sideways...
+const SIDE_LEVER: f64 = 0.02;
 /// ...and none slower than this (fraction of a full action).
 const MIN_CARRY_SPEED: f64 = 0.25;
 /// The fingers close to the grasp's width (slowing as they arrive: slammed shut from wide
@@ -147,12 +165,28 @@ impl Expert for PickObjectExpert {
         let m = rotation.to_rotation_matrix();
         let reach_down: f64 = (0..3).map(|i| m[(2, i)].abs() * half[i]).sum();
         let lowest = centre.z - reach_down;
-        let aloft = lowest > config.surface_height(centre.x, centre.y) + 0.01;
+        let aloft = lowest > config.surface_height(centre.x, centre.y) + ALOFT;
+        // Tilted and propped up on an edge above its resting height (at the goal's height:
+        // it landed tilted)?
+        let tilted_up = m[(2, 2)] < UPRIGHT && centre.z - goal.z > ON_BASE;
         // Settled fingers squeeze it; once it is off the ground, fingers jiggling under its
-        // swing still hold it (stopping to re-close would swing it more).
-        let held = around && squeezing && (finger_speed < STEADY_FINGERS || aloft);
+        // swing still hold it (stopping to re-close would swing it more), and so do fingers
+        // jiggling on an object that landed tilted (it is pressed onto its base first).
+        let held = around && squeezing && (finger_speed < STEADY_FINGERS || aloft || tilted_up);
 
         let platform_top = config.surface_height(goal.x, goal.y);
+        // Letting go, the hand rises a little, slowly, and off a platform its fingertips were
+        // pressed onto (in joint control nothing keeps them off it): fingers pressed onto the
+        // platform, or into a bowl's curve, cannot slide open. (Not off a slender object, a
+        // bottle by its neck: lifted by the top as the pads open, it tips over.)
+        let slender = half.z > SLENDER * half.x.min(half.y);
+        let rise = if slender { 0.0 } else { UNJAM_RISE };
+        let unjammed = Vector3::new(
+            tcp.x,
+            tcp.y,
+            (tcp.z + rise).max(platform_top + FINGERTIPS + 0.002),
+        );
+        let unjam_speed = UNJAM_SPEED;
         if held {
             // Where the object's centre goes, and the hand with it.
             let offset = tcp - centre;
@@ -164,15 +198,20 @@ impl Expert for PickObjectExpert {
             // the pads does not.)
             let swing =
                 (v3("object_linear_velocity")? - vector_at(observation, &s.tcp_velocity)).norm();
-            if off_goal < p.arrival_distance && swing > SETTLED_SWING {
+            if off_goal < p.arrival_distance && swing > SETTLED_SWING && aloft {
                 let wait = Vector3::new(goal.x + offset.x, goal.y + offset.y, tcp.z);
                 return Ok(decision(Phase::SETTLE, wait, 0.3, p.arrival_gain, -1.0));
             }
             let carry_z = (platform_top + CARRY_CLEARANCE + half.z).max(goal.z);
             // An object hanging far from the fingers (a bottle by its neck, a bowl by its
             // rim) swings out of a pinch when the hand accelerates hard: carry it slower.
+            // One whose centre is off to the side of the fingers (a bowl by its rim) turns in
+            // the pinch under its own weight as well: slower still.
             let lever = (grasp - centre).norm();
-            let carry_speed = (SWING_LEVER / lever.max(1e-3)).clamp(MIN_CARRY_SPEED, 1.0);
+            let side_lever = (grasp - centre).xy().norm();
+            let carry_speed = (SWING_LEVER / lever.max(1e-3))
+                .min(SIDE_LEVER / side_lever.max(1e-3))
+                .clamp(MIN_CARRY_SPEED, 1.0);
             if off_goal > p.place_tolerance {
                 let (phase, target) = if off_goal < p.arrival_distance {
                     // Close over the goal: come down along a funnel while lining up.
@@ -211,9 +250,10 @@ impl Expert for PickObjectExpert {
             }
             // Landed tilted (swung in a pinch): press on gently, which turns it about the
             // fingers onto its base, before letting go; let go tilted, a tall object topples.
-            let upright = m[(2, 2)];
-            let pressed = goal.z + offset.z - tcp.z;
-            if upright < UPRIGHT && pressed < MAX_PRESS && !hand_lowest {
+            // (Pressed onto its base, its centre is down at its resting height: a lying object
+            // turned in the pads about its long side is not lifted by that, and pressing it
+            // would only push the hand into the platform.)
+            if tilted_up && !hand_lowest {
                 let down = goal + offset - Vector3::new(0.0, 0.0, MAX_PRESS);
                 return Ok(decision(
                     Phase::LOWER,
@@ -223,13 +263,18 @@ impl Expert for PickObjectExpert {
                     -1.0,
                 ));
             }
-            return Ok(decision(Phase::RELEASE, tcp, 0.0, 1.0, 1.0));
+            // Set down still moving in the hand (landing), it is held where it is until it
+            // stops: let go moving, a round one rolls away.
+            if swing > LANDED_SPEED {
+                return Ok(decision(Phase::SETTLE, tcp, 0.0, 1.0, -1.0));
+            }
+            return Ok(decision(Phase::RELEASE, unjammed, unjam_speed, 1.0, 1.0));
         }
         let resting = (centre.z - goal.z).abs() < 0.01;
         if (centre - goal).norm() < config.success_threshold && resting {
             // Placed (or being let go): open, then back off upwards.
             if hand_closed && around {
-                return Ok(decision(Phase::RELEASE, tcp, 1.0, 1.0, 1.0));
+                return Ok(decision(Phase::RELEASE, unjammed, unjam_speed, 1.0, 1.0));
             }
             // Straight up, slowly until the fingertips clear the object's top.
             let up = Vector3::new(tcp.x, tcp.y, goal.z + half.z + p.retreat_height);
@@ -276,6 +321,13 @@ impl Expert for PickObjectExpert {
                 p.arrival_gain,
                 1.0,
             ));
+        }
+        if around {
+            // The open hand is down around the object but off its grasp (it moved, or was just
+            // let go): first straight up, slowly (moving sideways, or fast, the fingers drag
+            // it along).
+            let up = Vector3::new(tcp.x, tcp.y, over.max(grasp_at.z));
+            return Ok(decision(Phase::APPROACH, up, RETREAT_SPEED, 1.0, 1.0));
         }
         let height = if sideways < 2.5 * LINED_UP {
             // Nearly lined up: hold the height while the hand centres and turns.
