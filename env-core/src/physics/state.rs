@@ -22,6 +22,20 @@ pub struct BodyState {
 }
 
 impl BodyState {
+    /// The state of the frame at `offset` in this body's frame, moving with it: the velocity of
+    /// a point rigidly attached to the body.
+    pub(crate) fn at_offset(&self, offset: &Isometry3<f64>) -> Self {
+        let pose = Isometry3::from_parts(Translation3::from(self.position), self.orientation);
+        let frame = pose * offset;
+        let lever = frame.translation.vector - self.position;
+        Self {
+            position: frame.translation.vector,
+            orientation: frame.rotation,
+            linear_velocity: self.linear_velocity + self.angular_velocity.cross(&lever),
+            angular_velocity: self.angular_velocity,
+        }
+    }
+
     /// The state of a body that is not there: NaN position and velocities (so any use shows).
     pub(crate) fn nan() -> Self {
         Self {
@@ -177,16 +191,7 @@ impl Simulation {
         handle: RigidBodyHandle,
         offset: &Isometry3<f64>,
     ) -> BodyState {
-        let body = self.body_state(handle);
-        let pose = Isometry3::from_parts(Translation3::from(body.position), body.orientation);
-        let frame = pose * offset;
-        let lever = frame.translation.vector - body.position;
-        BodyState {
-            position: frame.translation.vector,
-            orientation: frame.rotation,
-            linear_velocity: body.linear_velocity + body.angular_velocity.cross(&lever),
-            angular_velocity: body.angular_velocity,
-        }
+        self.body_state(handle).at_offset(offset)
     }
 
     /// Pose and velocity of link `index`. Frame-only links without a body of their own (such as
@@ -245,15 +250,6 @@ impl Simulation {
     /// Pose and velocity of the tool centre point.
     pub fn tcp_state(&self) -> BodyState {
         let tcp = self.model.tcp();
-        let link = self.link_body_state(tcp.link);
-        let pose =
-            Isometry3::from_parts(Translation3::from(link.position), link.orientation) * tcp.offset;
-        let lever = pose.translation.vector - link.position;
-        BodyState {
-            position: pose.translation.vector,
-            orientation: pose.rotation,
-            linear_velocity: link.linear_velocity + link.angular_velocity.cross(&lever),
-            angular_velocity: link.angular_velocity,
-        }
+        self.link_body_state(tcp.link).at_offset(&tcp.offset)
     }
 }

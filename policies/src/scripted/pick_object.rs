@@ -186,7 +186,6 @@ impl Expert for PickObjectExpert {
             tcp.y,
             (tcp.z + rise).max(platform_top + FINGERTIPS + 0.002),
         );
-        let unjam_speed = UNJAM_SPEED;
         if held {
             // Where the object's centre goes, and the hand with it.
             let offset = tcp - centre;
@@ -268,13 +267,13 @@ impl Expert for PickObjectExpert {
             if swing > LANDED_SPEED {
                 return Ok(decision(Phase::SETTLE, tcp, 0.0, 1.0, -1.0));
             }
-            return Ok(decision(Phase::RELEASE, unjammed, unjam_speed, 1.0, 1.0));
+            return Ok(decision(Phase::RELEASE, unjammed, UNJAM_SPEED, 1.0, 1.0));
         }
         let resting = (centre.z - goal.z).abs() < 0.01;
         if (centre - goal).norm() < config.success_threshold && resting {
             // Placed (or being let go): open, then back off upwards.
             if hand_closed && around {
-                return Ok(decision(Phase::RELEASE, unjammed, unjam_speed, 1.0, 1.0));
+                return Ok(decision(Phase::RELEASE, unjammed, UNJAM_SPEED, 1.0, 1.0));
             }
             // Straight up, slowly until the fingertips clear the object's top.
             let up = Vector3::new(tcp.x, tcp.y, goal.z + half.z + p.retreat_height);
