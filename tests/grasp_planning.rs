@@ -111,6 +111,7 @@ fn pick(shape: ObjectShape, grasp: &TopGrasp, yaw: f64, lift: f64) -> f64 {
             friction: 1.0,
             position: [0.0; 3],
             fixed: false,
+            visuals: Vec::new(),
         }],
         floor_friction: None,
         articulations: Vec::new(),

@@ -111,6 +111,7 @@ fn a_hand_driven_into_a_fixture_stops_above_it() {
         friction: 0.5,
         position: [top[0], top[1], 0.05],
         fixed: true,
+        visuals: Vec::new(),
     };
     let scene = panda_rapier::Scene {
         objects: vec![block],

@@ -75,6 +75,10 @@ pub const OBJECT_SET: &[ShippedObject] = &[
     shipped!("pear", parts),
 ];
 
+/// The shipped objects' colours (`assets/objects/objects.mtl`, the material library their
+/// meshes name).
+pub const OBJECT_MATERIALS: &[u8] = include_bytes!("../../assets/objects/objects.mtl");
+
 /// The shipped object called `name`.
 pub fn shipped_object(name: &str) -> Option<&'static ShippedObject> {
     OBJECT_SET.iter().find(|o| o.name == name)

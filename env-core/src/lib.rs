@@ -41,9 +41,9 @@ pub use model::{JointInfo, JointType, LinkInfo, Mimic, RobotModel, Tcp};
 pub use physics::{
     ArticulationId, ArticulationJoints, ArticulationSpec, BodyState, Decomposition, FingerTouch,
     GripperGeometry, JointControl, JointState, LinkState, LoadedMesh, MeshCollision, MeshFile,
-    ObjectContacts, ObjectId, ObjectShape, ObjectSpec, ObjectTouch, PairContact, Scene, ShapeCache,
-    ShapePart, SimSnapshot, Simulation, TopGrasp, TouchReading, VisualPrimitive, VisualShape,
-    VisualTag, Wrench,
+    ObjectContacts, ObjectId, ObjectShape, ObjectSpec, ObjectTouch, ObjectVisual, PairContact,
+    Scene, ShapeCache, ShapePart, SharedMesh, SimSnapshot, Simulation, TopGrasp, TouchReading,
+    TriangleMesh, VisualPart, VisualPrimitive, VisualShape, VisualTag, Wrench,
 };
 pub use robot::panda::READY as PANDA_READY;
 #[allow(deprecated)]

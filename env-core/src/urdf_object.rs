@@ -6,16 +6,22 @@
 //! [`MeshCollision`] (a file named `*_vhacd.*`, PyBullet's convention for a file that is already
 //! its convex hulls, is taken as it is, [`MeshCollision::Parts`], unless the collision asked
 //! for is one hull). Inertia is not read: the physics spreads the mass uniformly over
-//! the shape (several of PyBullet's files give placeholder tensors).
+//! the shape (several of PyBullet's files give placeholder tensors). Its `<visual>` elements
+//! say how it looks ([`ObjectVisual`], [`urdf_visual_parts`]).
 
 use std::path::Path;
 
-use nalgebra::Isometry3;
+use std::sync::Arc;
+
+use nalgebra::{Isometry3, Vector3};
 use rapier3d_urdf::urdf_rs;
 
 use crate::error::{Error, Result};
 use crate::model::{urdf_pose, JointType, RobotModel};
-use crate::physics::{MeshCollision, MeshFile, ObjectShape, ShapeCache, ShapePart};
+use crate::physics::{
+    color_from_fractions, MeshCollision, MeshFile, ObjectShape, ObjectVisual, ShapeCache,
+    ShapePart, VisualPart, VisualShape,
+};
 
 /// A URDF object: its shape (root link's frame) and the mass of all its links (0 where the
 /// file gives none).
@@ -25,6 +31,8 @@ pub struct UrdfObject {
     pub shape: ObjectShape,
     /// The sum of the links' `<inertial>` masses (kg).
     pub mass: f64,
+    /// How it looks: its links' `<visual>` elements (empty where it has none).
+    pub visual: Arc<ObjectVisual>,
 }
 
 impl UrdfObject {
@@ -134,8 +142,93 @@ impl UrdfObject {
             ObjectShape::Compound { parts }
         };
         let mass = model.links().iter().map(|l| l.mass).sum();
-        Ok(Self { shape, mass })
+        let mut visual = ObjectVisual::default();
+        for (link, pose) in poses.iter().enumerate() {
+            visual
+                .parts
+                .extend(urdf_visual_parts(model.urdf(), link, pose, scale, field)?);
+        }
+        Ok(Self {
+            shape,
+            mass,
+            visual: Arc::new(visual),
+        })
     }
+}
+
+/// The `<visual>` elements of link `link` of `urdf` as [`VisualPart`]s in a frame where the
+/// link's frame is at `link_pose` (lengths of the file times `scale`; the pose's translation
+/// is scaled here). Boxes, spheres, cylinders and capsules become those shapes; a mesh file
+/// (its path resolved, as [`RobotModel::from_urdf_file`] resolves them) becomes its triangles.
+/// A part's colour: a mesh's own materials' where it gives them (an OBJ's `Kd`), else the
+/// element's `<material>` colour (given inline or by the name of a material the file
+/// defines at its top), else none. Errors name `field`, the link and the element.
+///
+/// # Errors
+/// [`Error::BadMesh`] for a mesh file that is missing, unreadable or malformed.
+pub fn urdf_visual_parts(
+    urdf: &urdf_rs::Robot,
+    link: usize,
+    link_pose: &Isometry3<f64>,
+    scale: f64,
+    field: &str,
+) -> Result<Vec<VisualPart>> {
+    let Some(urdf_link) = urdf.links.get(link) else {
+        return Ok(Vec::new());
+    };
+    let mut parts = Vec::new();
+    for (k, v) in urdf_link.visual.iter().enumerate() {
+        let mut pose = link_pose * urdf_pose(&v.origin);
+        pose.translation.vector *= scale;
+        let color = v.material.as_ref().and_then(|m| {
+            let named = || urdf.materials.iter().find(|n| n.name == m.name);
+            let given = m.color.as_ref().or_else(|| named()?.color.as_ref())?;
+            color_from_fractions([given.rgba[0], given.rgba[1], given.rgba[2]])
+        });
+        let shape = match &v.geometry {
+            urdf_rs::Geometry::Box { size } => VisualShape::Box {
+                half_extents: Vector3::new(size[0], size[1], size[2]) * (scale / 2.0),
+            },
+            urdf_rs::Geometry::Sphere { radius } => VisualShape::Sphere {
+                radius: radius * scale,
+            },
+            urdf_rs::Geometry::Cylinder { radius, length } => VisualShape::Cylinder {
+                half_height: length * scale / 2.0,
+                radius: radius * scale,
+            },
+            urdf_rs::Geometry::Capsule { radius, length } => VisualShape::Capsule {
+                half_height: length * scale / 2.0,
+                radius: radius * scale,
+            },
+            urdf_rs::Geometry::Mesh {
+                filename,
+                scale: mesh_scale,
+            } => {
+                let s = mesh_scale.as_ref().map_or([1.0; 3], |v| [v[0], v[1], v[2]]);
+                let mesh = MeshFile {
+                    path: Path::new(filename).to_owned(),
+                    scale: [s[0] * scale, s[1] * scale, s[2] * scale],
+                    collision: MeshCollision::Hull,
+                };
+                let what = format!("{field} (link `{}`, visual {k})", urdf_link.name);
+                let bytes = std::fs::read(&mesh.path).map_err(|e| Error::BadMesh {
+                    field: what.clone(),
+                    path: mesh.path.clone(),
+                    reason: format!("cannot be read: {e}"),
+                })?;
+                for part in mesh.visual(&bytes, &what)?.parts {
+                    parts.push(VisualPart {
+                        pose: pose * part.pose,
+                        color: part.color.or(color),
+                        shape: part.shape,
+                    });
+                }
+                continue;
+            }
+        };
+        parts.push(VisualPart { shape, pose, color });
+    }
+    Ok(parts)
 }
 
 /// Whether `path` names a URDF file (by its extension, any case).

@@ -20,6 +20,7 @@
 //! [`Simulation::visual_primitives`]: panda_rapier_core::Simulation::visual_primitives
 
 pub mod camera;
+mod config;
 mod look;
 pub mod mesh;
 mod palette;

@@ -108,8 +108,14 @@ pub fn tessellate_with(shape: &VisualShape, detail: Detail, out: &mut Vec<Triang
             }
         }
         VisualShape::Plane => {}
+        VisualShape::Mesh { mesh } => {
+            // As the file winds them: it need not be convex, and renderers draw both sides.
+            let v = mesh.vertices();
+            out.extend(mesh.triangles().iter().map(|t| t.map(|k| v[k as usize])));
+            return;
+        }
     }
-    // Every shape here is convex around its centre: a face points outwards when its normal
+    // Every other shape here is convex around its centre: a face points outwards when its normal
     // points away from the centre. This fixes the winding whatever the source gave.
     let centre = match shape {
         VisualShape::ConvexMesh { vertices, .. } if !vertices.is_empty() => {

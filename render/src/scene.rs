@@ -2,13 +2,11 @@
 
 use nalgebra::Vector3;
 use panda_rapier_core::task::GoalMarker;
-use panda_rapier_core::{
-    Error, PandaEnv, Result, Simulation, VisualPrimitive, VisualShape, VisualTag,
-};
-use serde::{Deserialize, Serialize};
+use panda_rapier_core::{PandaEnv, Result, Simulation, VisualPrimitive, VisualShape, VisualTag};
 
-use crate::camera::{on_screen, Camera, CameraConfig, Projection};
-use crate::look::{episode_key, Look, VisualRandomization};
+use crate::camera::{on_screen, Camera, Projection};
+pub use crate::config::{RenderConfig, MAX_SIZE};
+use crate::look::{episode_key, Look};
 use crate::mesh::{map3, tessellate_with, Detail, IndexedMesh, Triangle};
 use crate::palette::{
     CARCASS, DRAWER, GOAL, HAND, HEADLIGHT, LINK, OBJECTS, SHADOW, SKY_HORIZON, SKY_TOP,
@@ -16,82 +14,6 @@ use crate::palette::{
 use crate::raster::{Frame, ScreenVertex};
 use crate::segmentation;
 use crate::shadow::{Edges, Receiver, Shadows};
-
-/// Largest width or height accepted (pixels).
-pub const MAX_SIZE: u32 = 4096;
-
-/// What to draw and how big: picture size and camera.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct RenderConfig {
-    /// Width in pixels (1 to [`MAX_SIZE`]; default [`RenderConfig::DEFAULT_WIDTH`]).
-    pub width: u32,
-    /// Height in pixels (1 to [`MAX_SIZE`]; default [`RenderConfig::DEFAULT_HEIGHT`]).
-    pub height: u32,
-    /// The camera.
-    pub camera: CameraConfig,
-    /// Whether the goal markers are drawn (default true; observation cameras leave them out,
-    /// so that a relabelled goal never contradicts the picture).
-    pub show_goal: bool,
-    /// Seeded visual randomisation of the pictures of an environment (default none).
-    pub randomization: Option<VisualRandomization>,
-}
-
-impl Default for RenderConfig {
-    fn default() -> Self {
-        Self {
-            width: Self::DEFAULT_WIDTH,
-            height: Self::DEFAULT_HEIGHT,
-            camera: CameraConfig::default(),
-            show_goal: true,
-            randomization: None,
-        }
-    }
-}
-
-impl RenderConfig {
-    /// The default picture width (pixels); Python's `render()` frames default to it too.
-    pub const DEFAULT_WIDTH: u32 = 720;
-    /// The default picture height (pixels).
-    pub const DEFAULT_HEIGHT: u32 = 480;
-
-    /// Reads and validates a JSON configuration; unknown keys are rejected.
-    pub fn from_json(text: &str) -> Result<Self> {
-        let config: Self = serde_json::from_str(text).map_err(|e| Error::InvalidConfig {
-            field: "render".into(),
-            reason: e.to_string(),
-        })?;
-        config.validate()?;
-        Ok(config)
-    }
-
-    /// Checks the size and the camera.
-    pub fn validate(&self) -> Result<()> {
-        for (field, v) in [("width", self.width), ("height", self.height)] {
-            if !(1..=MAX_SIZE).contains(&v) {
-                return Err(Error::InvalidConfig {
-                    field: field.into(),
-                    reason: format!("must be in [1, {MAX_SIZE}] pixels, got {v}"),
-                });
-            }
-        }
-        let camera = Camera::new(&self.camera)?;
-        if let Some(randomization) = &self.randomization {
-            randomization.validate()?;
-            let fov = camera.fov_y.to_degrees();
-            if !(fov - randomization.camera_fov >= 1.0 && fov + randomization.camera_fov <= 170.0) {
-                return Err(Error::InvalidConfig {
-                    field: "randomization.camera_fov".into(),
-                    reason: format!(
-                        "the field of view {fov} degrees +- {} leaves [1, 170]",
-                        randomization.camera_fov
-                    ),
-                });
-            }
-        }
-        Ok(())
-    }
-}
 
 const GOAL_RADIUS: f64 = 0.015;
 
@@ -269,7 +191,14 @@ impl Renderer {
                     }
                     self.look.platform
                 }
-                VisualTag::Object { index } => self.look.objects[index % OBJECTS.len()],
+                VisualTag::Object { index } => {
+                    let k = index % OBJECTS.len();
+                    match p.color {
+                        // The file's own colour, randomised as its slot's palette colour is.
+                        Some(own) => tinted(own, OBJECTS[k], self.look.objects[k]),
+                        None => self.look.objects[k],
+                    }
+                }
                 VisualTag::Articulation { link: 0, .. } => CARCASS,
                 VisualTag::Articulation { .. } => DRAWER,
                 VisualTag::RobotLink { finger: true, .. } => HAND,
@@ -307,6 +236,7 @@ impl Renderer {
                 pose,
                 // Not drawn by tag: the colour is given below and the marker casts no shadow.
                 tag: VisualTag::Floor,
+                color: None,
             };
             self.draw_primitive(primitives.len() + k, &marker, GOAL, &light, false);
         }
@@ -382,16 +312,24 @@ impl Renderer {
         if casts {
             self.shadows.begin(&world);
         }
+        // A file's mesh need not be closed or wound outwards: both sides of its triangles
+        // are drawn, and all of them cast shadows.
+        let two_sided = matches!(p.shape, VisualShape::Mesh { .. });
         for (i, corners) in mesh.triangles.iter().enumerate() {
             let w = mesh.corners(i, &world);
-            let normal = (w[1] - w[0]).cross(&(w[2] - w[0]));
+            let mut normal = (w[1] - w[0]).cross(&(w[2] - w[0]));
             if casts {
-                self.shadows.triangle(*corners, normal.dot(light) > 0.0);
+                self.shadows
+                    .triangle(*corners, two_sided || normal.dot(light) > 0.0);
             }
             // Faces turned away from the eye are left before their corners are fetched.
             let to_eye = self.camera.eye - w[0];
-            if normal.dot(&to_eye) <= 0.0 {
-                continue;
+            let facing = normal.dot(&to_eye);
+            if facing <= 0.0 {
+                if !two_sided || facing == 0.0 {
+                    continue;
+                }
+                normal = -normal;
             }
             let (v, sv) = (mesh.corners(i, &view), mesh.corners(i, &screen));
             self.shade_and_fill(&normal, &to_eye, color, light, &v, &sv);
@@ -527,6 +465,17 @@ impl Renderer {
     }
 }
 
+/// `own` scaled channel by channel as the palette colour `base` was to `drawn` (by the visual
+/// randomisation): `own` itself when `drawn` is `base`.
+fn tinted(own: [u8; 3], base: [u8; 3], drawn: [u8; 3]) -> [u8; 3] {
+    std::array::from_fn(|c| {
+        if drawn[c] == base[c] || base[c] == 0 {
+            return own[c];
+        }
+        round_to_u8(f64::from(own[c]) * f64::from(drawn[c]) / f64::from(base[c]))
+    })
+}
+
 /// `v.round().clamp(0.0, 255.0) as u8` without the call to `round` (targets without SSE4.1
 /// have no instruction for it): the same value for every `v`, NaN included (0).
 fn round_to_u8(v: f64) -> u8 {
@@ -573,28 +522,5 @@ mod tests {
         for v in cases {
             assert_eq!(round_to_u8(v), v.round().clamp(0.0, 255.0) as u8, "{v}");
         }
-    }
-
-    #[test]
-    fn sizes_are_validated() {
-        for json in [
-            r#"{"width": 0}"#,
-            r#"{"height": 100000}"#,
-            r#"{"width": -3}"#,
-            r#"{"colour": 1}"#,
-            r#"{"camera": {"fov": 0}}"#,
-        ] {
-            assert!(
-                matches!(
-                    RenderConfig::from_json(json),
-                    Err(Error::InvalidConfig { .. })
-                ),
-                "{json}"
-            );
-        }
-        assert_eq!(
-            RenderConfig::from_json("{}").unwrap(),
-            RenderConfig::default()
-        );
     }
 }

@@ -12,6 +12,7 @@ pub fn object(name: &str, shape: ObjectShape, position: [f64; 3]) -> ObjectSpec 
         friction: 0.8,
         position,
         fixed: false,
+        visuals: Vec::new(),
     }
 }
 

@@ -8,6 +8,9 @@
 use std::fs;
 use std::io;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use nalgebra::{Isometry3, Vector3};
 
 use rapier3d::parry::transformation::vhacd::{VHACDParameters, VHACD};
 use rapier3d::parry::transformation::voxelization::FillMode;
@@ -16,6 +19,9 @@ use sha2::{Digest, Sha256};
 
 use super::convert::vec_from_array;
 use super::shape::{ObjectShape, ShapePart};
+use super::visuals::{
+    color_from_fractions, ObjectVisual, SharedMesh, TriangleMesh, VisualPart, VisualShape,
+};
 use crate::error::{Error, Result};
 
 /// How a mesh file's triangles become the convex parts an object collides with.
@@ -143,7 +149,7 @@ impl MeshFile {
                 });
             }
         }
-        let meshes = self.read_meshes(bytes, &bad)?;
+        let meshes = self.read_meshes(bytes, &bad, &read_material_library)?;
         let parts = match self.collision {
             MeshCollision::Parts => meshes.into_iter().map(|m| m.vertices).collect(),
             MeshCollision::Hull => vec![meshes.into_iter().flat_map(|m| m.vertices).collect()],
@@ -210,8 +216,54 @@ impl MeshFile {
         hash.finalize().iter().map(|b| format!("{b:02x}")).collect()
     }
 
-    /// The file's meshes, scaled, each with its triangles; every coordinate finite.
-    fn read_meshes(&self, bytes: &[u8], bad: &dyn Fn(String) -> Error) -> Result<Vec<Mesh>> {
+    /// How the mesh looks: one [`VisualPart`] per mesh of the file (an OBJ's groups, objects
+    /// and material changes; a COLLADA file's meshes), its triangles as the file gives them
+    /// (scaled), coloured by its material's diffuse colour where the file gives one (an OBJ's
+    /// material library, read from beside it; a missing library leaves the parts uncoloured).
+    /// `bytes` are the file's contents; errors as [`MeshFile::load`]'s.
+    pub fn visual(&self, bytes: &[u8], field: &str) -> Result<ObjectVisual> {
+        self.visual_with(bytes, field, &read_material_library)
+    }
+
+    /// [`MeshFile::visual`] with an OBJ's material library read by `materials` (given the
+    /// library's path beside the file): an object compiled into the library reads its own.
+    pub fn visual_with(
+        &self,
+        bytes: &[u8],
+        field: &str,
+        materials: &dyn Fn(&Path) -> io::Result<Vec<u8>>,
+    ) -> Result<ObjectVisual> {
+        self.validate(field)?;
+        let bad = |reason: String| Error::BadMesh {
+            field: field.to_owned(),
+            path: self.path.clone(),
+            reason,
+        };
+        let parts = self
+            .read_meshes(bytes, &bad, materials)?
+            .into_iter()
+            .filter_map(|m| {
+                let vertices = m.vertices.iter().map(|&v| Vector3::from(v)).collect();
+                let mesh = TriangleMesh::new(vertices, m.triangles)?;
+                Some(VisualPart {
+                    shape: VisualShape::Mesh {
+                        mesh: SharedMesh(Arc::new(mesh)),
+                    },
+                    pose: Isometry3::identity(),
+                    color: m.color,
+                })
+            })
+            .collect();
+        Ok(ObjectVisual { parts })
+    }
+
+    /// The file's meshes, scaled, each with its triangles and colour; every coordinate finite.
+    fn read_meshes(
+        &self,
+        bytes: &[u8],
+        bad: &dyn Fn(String) -> Error,
+        materials: &dyn Fn(&Path) -> io::Result<Vec<u8>>,
+    ) -> Result<Vec<Mesh>> {
         let extension = self
             .path
             .extension()
@@ -219,19 +271,12 @@ impl MeshFile {
             .map(str::to_ascii_lowercase)
             .unwrap_or_default();
         let loader = mesh_loader::Loader::default();
-        // A missing material library only costs the colours: read it as empty.
-        let reader = |path: &Path| -> io::Result<Vec<u8>> {
-            match fs::read(path) {
-                Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(Vec::new()),
-                other => other,
-            }
-        };
         let scene = match extension.as_str() {
             "obj" => {
                 // mesh-loader starts a new mesh at `g` lines and material changes but not at
                 // `o` lines, which is how PyBullet's `_vhacd` files separate their hulls.
                 let text = obj_objects_as_groups(bytes);
-                loader.load_obj_from_slice_with_reader(&text, &self.path, reader)
+                loader.load_obj_from_slice_with_reader(&text, &self.path, materials)
             }
             "stl" => loader.load_stl_from_slice(bytes, &self.path),
             "dae" => loader.load_collada_from_slice(bytes, &self.path),
@@ -245,10 +290,15 @@ impl MeshFile {
         .map_err(|e| bad(format!("cannot be parsed: {e}")))?;
 
         let mut meshes = Vec::new();
-        for mesh in &scene.meshes {
+        for (k, mesh) in scene.meshes.iter().enumerate() {
             if mesh.faces.is_empty() {
                 continue;
             }
+            let color = scene
+                .materials
+                .get(k)
+                .and_then(|m| m.color.diffuse)
+                .and_then(|c| color_from_fractions([c[0], c[1], c[2]].map(f64::from)));
             let mut vertices = Vec::with_capacity(mesh.vertices.len());
             for (k, v) in mesh.vertices.iter().enumerate() {
                 let p = [
@@ -274,6 +324,7 @@ impl MeshFile {
             meshes.push(Mesh {
                 vertices,
                 triangles: mesh.faces.clone(),
+                color,
             });
         }
         if meshes.is_empty() {
@@ -406,6 +457,17 @@ struct CacheEntry {
 struct Mesh {
     vertices: Vec<[f64; 3]>,
     triangles: Vec<[u32; 3]>,
+    /// Its material's diffuse colour, where the file gives one.
+    color: Option<[u8; 3]>,
+}
+
+/// Reads an OBJ's material library from the file system; a missing one only costs the
+/// colours, so it reads as empty.
+fn read_material_library(path: &Path) -> io::Result<Vec<u8>> {
+    match fs::read(path) {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(Vec::new()),
+        other => other,
+    }
 }
 
 /// The OBJ text with each `o` line turned into a `g` line of the same name.

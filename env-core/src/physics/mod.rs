@@ -60,7 +60,10 @@ pub use shape::{ObjectShape, ShapePart};
 pub use snapshot::SimSnapshot;
 pub use state::{BodyState, JointState, LinkState};
 pub use touch::{FingerTouch, TouchReading, Wrench};
-pub use visuals::{VisualPrimitive, VisualShape, VisualTag};
+pub use visuals::{
+    color_from_fractions, ObjectVisual, SharedMesh, TriangleMesh, VisualPart, VisualPrimitive,
+    VisualShape, VisualTag,
+};
 
 const STATIC_GROUP: Group = Group::GROUP_1;
 const OBJECT_GROUP: Group = Group::GROUP_2;

@@ -1,6 +1,8 @@
 //! What a world holds besides the robot and the floor: the platform and the movable objects a
 //! task asks for, reached through named handles.
 
+use std::sync::Arc;
+
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rapier3d::geometry::SharedShape;
 use rapier3d::math::Vector;
@@ -9,6 +11,7 @@ use rapier3d::dynamics::FixedJointBuilder;
 
 use super::convert::{pose_from_na, pose_to_na, vec_to_na};
 use super::shape::ObjectShape;
+use super::visuals::ObjectVisual;
 use super::{ArticulationSpec, BodyState, SceneObject, Simulation};
 use crate::config::{non_negative, positive, CubeConfig, PlatformConfig};
 use crate::error::{ensure_all_finite, Error, Result};
@@ -49,6 +52,11 @@ pub struct ObjectSpec {
     /// A fixture: a fixed body that nothing moves but [`Simulation::set_object_pose`] (and a
     /// kinematic arm cannot enter, as the floor and the platform).
     pub fixed: bool,
+    /// How it looks, by variant ([`Simulation::object_variant`]: a task that draws its
+    /// object from a set gives one entry per object of the set); a variant without an entry,
+    /// or with an empty one, is drawn as its collision shape. Drawing only: the physics never
+    /// reads it.
+    pub visuals: Vec<Arc<ObjectVisual>>,
 }
 
 impl ObjectSpec {
@@ -61,6 +69,7 @@ impl ObjectSpec {
             friction: cube.friction,
             position,
             fixed: false,
+            visuals: Vec::new(),
         }
     }
 }

@@ -524,6 +524,7 @@ impl Task for PegInsertion {
                     friction: s.peg_friction,
                     position: [0.5, -0.1, r],
                     fixed: false,
+                    visuals: Vec::new(),
                 },
                 ObjectSpec {
                     name: "hole_box".into(),
@@ -532,6 +533,7 @@ impl Task for PegInsertion {
                     friction: s.platform.friction,
                     position: [top[0], top[1], top[2] + h + s.wall_thickness],
                     fixed: true,
+                    visuals: Vec::new(),
                 },
             ],
             ..Scene::default()

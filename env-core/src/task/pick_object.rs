@@ -347,6 +347,12 @@ impl Task for PickObject {
                 friction,
                 position: [0.5, -0.1, 0.0],
                 fixed: false,
+                // By variant: the set's objects in order (draw_episode's variant index).
+                visuals: self
+                    .objects
+                    .iter()
+                    .map(|o| o.geometry.visual.clone())
+                    .collect(),
             }],
             ..Scene::default()
         }

@@ -16,10 +16,12 @@ use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use sha2::{Digest, Sha256};
 
-use crate::assets::{shipped_object, ShippedObject, OBJECT_SET};
+use crate::assets::{shipped_object, ShippedObject, OBJECT_MATERIALS, OBJECT_SET};
 use crate::config::{invalid, non_negative, positive};
 use crate::error::{Error, Result};
-use crate::physics::{GripperGeometry, MeshCollision, MeshFile, ObjectShape, ShapeCache, TopGrasp};
+use crate::physics::{
+    GripperGeometry, MeshCollision, MeshFile, ObjectShape, ObjectVisual, ShapeCache, TopGrasp,
+};
 use crate::urdf_object::{is_urdf, UrdfObject};
 
 /// Mass (kg) and friction of the shipped objects, in [`OBJECT_SET`]'s order: everyday masses
@@ -204,14 +206,15 @@ impl ObjectEntry {
             Some(geometry) => geometry,
             None => {
                 let cache = ShapeCache::default_location();
-                let (shape, file_mass) = if is_urdf(&mesh.path) {
+                let (shape, file_mass, visual) = if is_urdf(&mesh.path) {
                     let scale = mesh.scale[0];
                     let urdf = UrdfObject::load(&mesh.path, scale, &mesh.collision, field, &cache)?;
-                    (urdf.shape, urdf.mass)
+                    (urdf.shape, urdf.mass, urdf.visual)
                 } else {
-                    (mesh.load_bytes(&bytes, field, &cache)?.shape, 0.0)
+                    let shape = mesh.load_bytes(&bytes, field, &cache)?.shape;
+                    (shape, 0.0, Arc::new(self.visual(&mesh, &bytes, field)?))
                 };
-                let geometry = Arc::new(Geometry::of(shape, file_mass, field)?);
+                let geometry = Arc::new(Geometry::of(shape, file_mass, visual, field)?);
                 if let Ok(mut m) = memo().lock() {
                     m.insert(key, geometry.clone());
                 }
@@ -230,6 +233,30 @@ impl ObjectEntry {
             friction,
             rolling_damping,
         }))
+    }
+}
+
+impl ObjectEntry {
+    /// How a mesh entry looks: a shipped object's mesh with the shipped colours, a file's
+    /// triangles with its materials' (`mesh` and `bytes`: what it collides with, which for a
+    /// file is the file itself).
+    fn visual(&self, mesh: &MeshFile, bytes: &[u8], field: &str) -> Result<ObjectVisual> {
+        match self {
+            ObjectEntry::Shipped(name) => {
+                let Some(shipped) = shipped_object(name) else {
+                    return Ok(ObjectVisual::default());
+                };
+                let materials = |path: &std::path::Path| {
+                    if path.file_name().is_some_and(|n| n == "objects.mtl") {
+                        Ok(OBJECT_MATERIALS.to_vec())
+                    } else {
+                        Err(std::io::ErrorKind::NotFound.into())
+                    }
+                };
+                MeshFile::new(shipped.source()).visual_with(shipped.mesh, field, &materials)
+            }
+            ObjectEntry::File(_) => mesh.visual(bytes, field),
+        }
     }
 }
 
@@ -263,10 +290,17 @@ pub(crate) struct Geometry {
     pub(crate) grasp: TopGrasp,
     /// The mass the file gives (a URDF's), 0 where it gives none.
     pub(crate) file_mass: f64,
+    /// How it looks.
+    pub(crate) visual: Arc<ObjectVisual>,
 }
 
 impl Geometry {
-    fn of(shape: ObjectShape, file_mass: f64, field: &str) -> Result<Self> {
+    fn of(
+        shape: ObjectShape,
+        file_mass: f64,
+        visual: Arc<ObjectVisual>,
+        field: &str,
+    ) -> Result<Self> {
         let (low, high) = shape.bounds();
         let grasp = shape.top_grasp(&GripperGeometry::PANDA)?.ok_or_else(|| {
             invalid(
@@ -288,6 +322,7 @@ impl Geometry {
             high,
             grasp,
             file_mass,
+            visual,
         })
     }
 }
