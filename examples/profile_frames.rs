@@ -7,7 +7,8 @@
 //! is the frames' cost (`scripts/instructions-per-frame`). The default picture is the default
 //! observation camera (`CameraConfig::OBSERVATION`, Python's `panda_rapier.pixels.DEFAULT_CAMERA`,
 //! no goal markers); a render configuration file (JSON, as `RenderConfig::from_json` reads it)
-//! replaces it.
+//! replaces it. The environment is pick-and-place's default unless `PROFILE_FRAMES_ENV` holds
+//! an environment configuration (JSON, as `EnvConfig::from_json` reads it).
 
 use panda_rapier::env::PandaEnv;
 use panda_rapier::policies::ScriptedPolicy;
@@ -32,7 +33,10 @@ fn main() -> panda_rapier::Result<()> {
         },
     };
     let mut renderer = Renderer::new(render)?;
-    let config = EnvConfig::default();
+    let config = match std::env::var("PROFILE_FRAMES_ENV") {
+        Ok(json) => EnvConfig::from_json(&json)?,
+        Err(_) => EnvConfig::default(),
+    };
     let mut env = PandaEnv::new(config.clone())?;
     let mut policy = ScriptedPolicy::new(&config)?;
     let options = ResetOptions::default();
