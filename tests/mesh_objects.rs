@@ -3,12 +3,15 @@
 //! disk by content and settings, files of convex blocks are taken as they are, STL files load,
 //! and bad files are refused by name.
 
+#[path = "common/obj_files.rs"]
+mod obj_files;
 #[path = "common/objects.rs"]
 mod objects;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use obj_files::box_obj;
 use objects::{object, run};
 use panda_rapier::{
     Decomposition, Error, MeshCollision, MeshFile, ObjectShape, ObjectSpec, Scene, ShapeCache,
@@ -17,37 +20,7 @@ use panda_rapier::{
 
 /// A fresh scratch directory under the target directory.
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("mesh_objects-{name}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// OBJ lines of a closed box from `lo` to `hi`, its vertices numbered from `first` (1-based).
-fn box_obj(out: &mut String, lo: [f64; 3], hi: [f64; 3], first: usize) {
-    for k in 0..8 {
-        let c = |axis: usize| {
-            if k >> axis & 1 == 1 {
-                hi[axis]
-            } else {
-                lo[axis]
-            }
-        };
-        writeln!(out, "v {} {} {}", c(0), c(1), c(2)).unwrap();
-    }
-    // Two triangles per face, outward (corner k has bit 0 = x, bit 1 = y, bit 2 = z).
-    let faces = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    for [a, b, c, d] in faces {
-        let [a, b, c, d] = [a, b, c, d].map(|i| i + first);
-        writeln!(out, "f {a} {b} {c}\nf {a} {c} {d}").unwrap();
-    }
+    obj_files::scratch("mesh_objects", name)
 }
 
 /// A cup: a square box 8 x 8 cm, 6 cm high, open at the top, walls and bottom 1 cm thick,

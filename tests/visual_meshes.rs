@@ -3,11 +3,14 @@
 //! the drawn object's visual mesh in its file's colours, a mesh that is not closed is drawn
 //! from both sides, and a visual mesh that cannot be read is refused by file and field.
 
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+#[path = "common/obj_files.rs"]
+mod obj_files;
+
+use std::path::PathBuf;
 use std::sync::Arc;
 
 use nalgebra::{Isometry3, Vector3};
+use obj_files::box_obj;
 use panda_rapier::env::PandaEnv;
 use panda_rapier::render::{segmentation, CameraConfig, RenderConfig, Renderer};
 use panda_rapier::task::{EnvConfig, ResetOptions};
@@ -18,35 +21,7 @@ use panda_rapier::{
 };
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("visual_meshes-{name}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// OBJ lines of a box from `lo` to `hi`, vertices numbered from `first` (1-based).
-fn box_obj(out: &mut String, lo: [f64; 3], hi: [f64; 3], first: usize) {
-    for k in 0..8 {
-        let c = |axis: usize| {
-            if k >> axis & 1 == 1 {
-                hi[axis]
-            } else {
-                lo[axis]
-            }
-        };
-        writeln!(out, "v {} {} {}", c(0), c(1), c(2)).unwrap();
-    }
-    for [a, b, c, d] in [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ] {
-        let [a, b, c, d] = [a, b, c, d].map(|i| i + first);
-        writeln!(out, "f {a} {b} {c}\nf {a} {c} {d}").unwrap();
-    }
+    obj_files::scratch("visual_meshes", name)
 }
 
 /// Two boxes, one red and one blue by their materials (`two.mtl`).

@@ -57,7 +57,8 @@ pub struct Renderer {
 }
 
 impl Renderer {
-    /// A renderer for `config`; invalid sizes or cameras are [`Error::InvalidConfig`].
+    /// A renderer for `config`; invalid sizes or cameras are
+    /// [`panda_rapier_core::Error::InvalidConfig`].
     pub fn new(config: RenderConfig) -> Result<Self> {
         config.validate()?;
         let camera = Camera::new(&config.camera)?;
