@@ -19,7 +19,9 @@ from stable_baselines3 import PPO
 from panda_rapier import cli
 from panda_rapier.agents.evaluation import evaluate
 from panda_rapier.agents.inference import resolve_policy
+from panda_rapier.agents.model_file import save_model
 from panda_rapier.agents.student_model import (
+    DEPTH_CLIP,
     PixelEncoder,
     SpatialSoftArgmax,
     load_student,
@@ -29,7 +31,7 @@ from panda_rapier.agents.student_model import (
 from panda_rapier.errors import ConfigError, InvalidArgumentError
 from panda_rapier.learning.runner import train
 from panda_rapier.learning.student import collect_student, distil
-from panda_rapier.pixels import randomization_of
+from panda_rapier.pixels import DEPTH_FAR, randomization_of
 from panda_rapier.registration import env_config
 from panda_rapier.sb3 import make_vec_env
 from panda_rapier.tools.reporting import ROBUSTNESS_CONDITIONS, robustness_table
@@ -146,6 +148,75 @@ def test_dagger_improves_the_student_on_a_tiny_budget() -> None:
     assert after < 0.6 * constant < before, (before, constant, after)
 
 
+DEPTH = {"obs_mode": "proprio+depth", "image_size": 48}
+
+
+def test_the_encoder_sees_depth_clamped_and_standardised() -> None:
+    env = make_vec_env(ENV_ID, n_envs=1, obs_mode="proprio+rgbd", image_size=48)
+    arch = student_architecture(TINY["student"])
+    model = PPO("MultiInputPolicy", env, policy_kwargs=policy_kwargs(arch), seed=0, device="cpu")
+    encoder = model.policy.features_extractor
+    assert isinstance(encoder, PixelEncoder)
+    assert encoder.image_keys == ["rgb", "rgb_depth"]
+    assert encoder.depth_keys == ["rgb_depth"]
+    assert encoder.features_dim == 2 * (2 * 8) + 3 + 25
+    depths = np.array([[[[1.0]], [[3.0]]], [[[2.0]], [[DEPTH_FAR]]]], dtype=np.float32)
+    encoder.fit_depth([depths])
+    clamped = np.minimum([1.0, 3.0, 2.0, DEPTH_FAR], DEPTH_CLIP)
+    assert encoder.depth_mean.item() == pytest.approx(np.mean(clamped))
+    assert encoder.depth_scale.item() == pytest.approx(np.std(clamped))
+    far = th.full((1, 48, 48, 1), DEPTH_FAR)
+    image = encoder._input("rgb_depth", far)
+    assert image.shape == (1, 1, 48, 48)
+    expected = (DEPTH_CLIP - np.mean(clamped)) / np.std(clamped)
+    np.testing.assert_allclose(image.numpy(), expected, rtol=1e-6)
+    with pytest.raises(InvalidArgumentError, match="one array per depth key"):
+        encoder.fit_depth([])
+    # A colour student's weights have no depth entries: shipped students load as before.
+    colour = _student(arch).policy.state_dict()
+    assert not any("depth" in key for key in colour)
+
+
+def test_a_depth_student_learns_and_loads_by_data(tmp_path: Path) -> None:
+    """Depth alone (no colour): 24 episodes take the student's prediction of the expert's
+    actions in unseen states well under the best constant action's error, and its file
+    rebuilds the same policy by data."""
+    config = env_config(ENV_ID)
+    data, _ = collect_student(config, DEPTH, 2, first_seed=7, num_envs=2)
+    assert data.observations["rgb_depth"].shape == (len(data), 48, 48, 1)
+    assert data.observations["rgb_depth"].dtype == np.float32
+    env = make_vec_env(ENV_ID, n_envs=1, **DEPTH)
+    arch = student_architecture({"channels": [8, 16, 8], "strides": [2, 2, 1]})
+    model = PPO("MultiInputPolicy", env, policy_kwargs=policy_kwargs(arch), seed=0, device="cpu")
+    held_out, _ = collect_student(config, DEPTH, 8, first_seed=10_000, num_envs=8)
+
+    def loss() -> float:
+        obs = {k: th.as_tensor(v) for k, v in held_out.observations.items()}
+        with th.no_grad():
+            mean = model.policy.get_distribution(obs).distribution.mean.numpy()
+        return float(np.mean((mean - held_out.actions) ** 2))
+
+    before = loss()
+    distil(
+        model, config, DEPTH, demo_episodes=16, rounds=1, episodes_per_round=8,
+        first_updates=300, round_updates=150, final_updates=100, first_seed=0, batch_size=64,
+        learning_rate=1e-3, num_envs=8,
+    )  # fmt: skip
+    encoder = model.policy.features_extractor
+    assert 1.0 < encoder.depth_mean.item() < DEPTH_CLIP  # fitted to the scene's depths
+    constant = float(np.mean((held_out.actions - held_out.actions.mean(axis=0)) ** 2))
+    after = loss()
+    assert after < 0.6 * constant < before, (before, constant, after)
+    run = {"env_id": ENV_ID, "env_kwargs": DEPTH, "student": arch}
+    save_model(model, tmp_path / "model.zip", run)
+    student = load_student(tmp_path / "model.zip")
+    assert student.observation == DEPTH
+    obs = make_vec_env(ENV_ID, n_envs=3, seed=5, **DEPTH).reset()
+    ours, _ = student.predict(obs, deterministic=True)
+    theirs, _ = model.predict(obs, deterministic=True)
+    np.testing.assert_array_equal(ours, theirs)
+
+
 def test_train_writes_a_student_that_loads_by_data(tiny_run: Path) -> None:
     run = json.loads((tiny_run / "run.json").read_text())
     assert run["student"]["channels"] == [8, 16, 8]
@@ -182,7 +253,7 @@ def test_a_student_is_evaluated_without_trusting_its_file(
 def test_the_robustness_table_evaluates_each_randomisation(tiny_run: Path) -> None:
     table, records = robustness_table([tiny_run / "model.zip"], episodes=3, progress=False)
     assert set(records) == {f"model.zip {c}" for c in ROBUSTNESS_CONDITIONS}
-    assert "(trained under randomisation)" in table.splitlines()[0]
+    assert "(proprio+rgb, trained under randomisation)" in table.splitlines()[0]
     assert len(table.splitlines()) == 2 + len(ROBUSTNESS_CONDITIONS)
     # The plain row is what `panda-rapier eval` reports on those seeds.
     plain = resolve_policy(tiny_run / "model.zip")

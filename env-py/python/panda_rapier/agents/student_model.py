@@ -57,8 +57,24 @@ DEFAULT_ARCHITECTURE: dict[str, Any] = {
 }
 
 
+#: Depths past this (m) reach a depth student's CNN as this. The default camera sees the
+#: robot, the platform and the cube between about 1.1 and 2 m; the floor behind them and the
+#: empty distance (:data:`~panda_rapier.pixels.DEPTH_FAR`) would otherwise set the scale.
+DEPTH_CLIP = 2.5
+
+
 def _is_image(space: gym.Space[Any]) -> bool:
     return isinstance(space, gym.spaces.Box) and space.dtype == np.uint8 and len(space.shape) == 3
+
+
+def _is_depth(space: gym.Space[Any]) -> bool:
+    """A depth image: float32 ``(height, width, 1)`` (stable-baselines3 leaves it as it is)."""
+    return (
+        isinstance(space, gym.spaces.Box)
+        and space.dtype == np.float32
+        and len(space.shape) == 3
+        and space.shape[2] == 1
+    )
 
 
 class SpatialSoftArgmax(nn.Module):
@@ -82,15 +98,19 @@ class SpatialSoftArgmax(nn.Module):
 
 
 class PixelEncoder(BaseFeaturesExtractor):
-    """The features of a ``Dict`` observation with images (uint8 ``(3, height, width)``, as
-    stable-baselines3 passes them on, scaled to [0, 1] by it): per image, in key order, a CNN
-    (``channels`` and ``strides``; a 5x5 first convolution, 3x3 after it, ReLU between) whose
-    last layer's channels become keypoints (:class:`SpatialSoftArgmax`); then the other entries
-    flattened in key order and mapped to ``clip((x - mean) / scale, -10, 10)`` (identity until
-    :meth:`fit`)."""
+    """The features of a ``Dict`` observation with images: colour (uint8 ``(3, height,
+    width)``, as stable-baselines3 passes them on, scaled to [0, 1] by it) and depth (float32
+    ``(height, width, 1)`` metres, clamped to :data:`DEPTH_CLIP` and standardised by
+    ``depth_mean`` and ``depth_scale``, one pair per depth image, identity until
+    :meth:`fit_depth`). Per image, in key order, a CNN (``channels`` and ``strides``; a 5x5
+    first convolution, 3x3 after it, ReLU between) whose last layer's channels become keypoints
+    (:class:`SpatialSoftArgmax`); then the other entries flattened in key order and mapped to
+    ``clip((x - mean) / scale, -10, 10)`` (identity until :meth:`fit`)."""
 
     mean: th.Tensor
     scale: th.Tensor
+    depth_mean: th.Tensor
+    depth_scale: th.Tensor
 
     def __init__(
         self,
@@ -107,19 +127,29 @@ class PixelEncoder(BaseFeaturesExtractor):
         if any(not 1 <= c <= 512 for c in channels) or any(not 1 <= s <= 4 for s in strides):
             raise ConfigError("PixelEncoder channels must be in [1, 512] and strides in [1, 4]")
         keys = sorted(observation_space.spaces)
-        image_keys = [k for k in keys if _is_image(observation_space.spaces[k])]
+        image_keys = [
+            k
+            for k in keys
+            if _is_image(observation_space.spaces[k]) or _is_depth(observation_space.spaces[k])
+        ]
+        depth_keys = [k for k in image_keys if _is_depth(observation_space.spaces[k])]
         vector_keys = [k for k in keys if k not in image_keys]
         if not image_keys:
-            raise TypeError("PixelEncoder needs at least one uint8 image in the observation")
+            raise TypeError(
+                "PixelEncoder needs at least one uint8 colour or float32 depth image in the "
+                "observation"
+            )
         vector_dim = sum(gym.spaces.flatdim(observation_space.spaces[k]) for k in vector_keys)
         cnns = []
         for key in image_keys:
             shape = observation_space.spaces[key].shape
             assert shape is not None
-            if shape[0] != 3:
+            if key in depth_keys:
+                shape = (1, shape[0], shape[1])
+            elif shape[0] != 3:
                 raise TypeError(f"PixelEncoder needs channels-first images, got {key}: {shape}")
             layers: list[nn.Module] = []
-            previous = 3
+            previous = shape[0]
             for i, (c, s) in enumerate(zip(channels, strides, strict=True)):
                 kernel = 5 if i == 0 else 3
                 layers += [nn.Conv2d(previous, c, kernel, s, kernel // 2), nn.ReLU()]
@@ -130,10 +160,14 @@ class PixelEncoder(BaseFeaturesExtractor):
             cnns.append(nn.Sequential(*layers, SpatialSoftArgmax(int(height), int(width))))
         super().__init__(observation_space, features_dim=2 * channels[-1] * len(cnns) + vector_dim)
         self.image_keys, self.vector_keys = image_keys, vector_keys
+        self.depth_keys = depth_keys
         self.cnns = nn.ModuleList(cnns)
         self.clip = float(clip)
         self.register_buffer("mean", th.zeros(vector_dim))
         self.register_buffer("scale", th.ones(vector_dim))
+        if depth_keys:  # a colour student's weights stay as they were
+            self.register_buffer("depth_mean", th.zeros(len(depth_keys)))
+            self.register_buffer("depth_scale", th.ones(len(depth_keys)))
 
     def fit(self, vectors: np.ndarray, min_scale: float = MIN_SCALE) -> None:
         """Sets the vector entries' mean and scale (standard deviation, at least
@@ -143,8 +177,31 @@ class PixelEncoder(BaseFeaturesExtractor):
         self.mean.copy_(th.as_tensor(mean))
         self.scale.copy_(th.as_tensor(scale))
 
+    def fit_depth(self, depths: Sequence[np.ndarray]) -> None:
+        """Sets each depth image's mean and scale (standard deviation, at least ``MIN_SCALE``
+        m) from its pixels clamped to :data:`DEPTH_CLIP`: one array of images per depth key,
+        in key order."""
+        if len(depths) != len(self.depth_keys):
+            raise InvalidArgumentError(
+                f"fit_depth needs one array per depth key {self.depth_keys}, got {len(depths)}"
+            )
+        for i, images in enumerate(depths):
+            clamped = np.minimum(np.asarray(images, dtype=np.float64), DEPTH_CLIP)
+            self.depth_mean[i] = float(clamped.mean())
+            self.depth_scale[i] = max(float(clamped.std()), MIN_SCALE)
+
+    def _input(self, key: str, value: th.Tensor) -> th.Tensor:
+        if key not in self.depth_keys:
+            return value
+        i = self.depth_keys.index(key)
+        depth = value.permute(0, 3, 1, 2).clamp(max=DEPTH_CLIP)
+        return (depth - self.depth_mean[i]) / self.depth_scale[i]
+
     def forward(self, observations: Mapping[str, th.Tensor]) -> th.Tensor:
-        parts = [cnn(observations[k]) for k, cnn in zip(self.image_keys, self.cnns, strict=True)]
+        parts = [
+            cnn(self._input(k, observations[k]))
+            for k, cnn in zip(self.image_keys, self.cnns, strict=True)
+        ]
         if self.vector_keys:
             flat = th.cat([observations[k].flatten(start_dim=1) for k in self.vector_keys], dim=1)
             parts.append(((flat - self.mean) / self.scale).clamp(-self.clip, self.clip))

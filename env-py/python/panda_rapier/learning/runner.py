@@ -284,8 +284,9 @@ def _train_cloning(
     if sees != ("student" in recipe):
         raise ConfigError(
             "a bc run on image observations needs a student recipe (a 'student' entry, "
-            "e.g. models/recipes/bc-pixels.yml), and a student recipe needs obs_mode "
-            f"proprio+rgb; got obs_mode {observation.get('obs_mode', 'state')!r}"
+            "e.g. models/recipes/bc-pixels.yml), and a student recipe needs an obs_mode with "
+            "colour or depth images (proprio+rgb, proprio+depth, proprio+rgbd); got obs_mode "
+            f"{observation.get('obs_mode', 'state')!r}"
         )
     if sees:
         recorder = Recorder(out, config, run, eval_episodes, num_threads, 0.0, say,

@@ -2,10 +2,12 @@
 
 The student observes what ``obs_mode="proprio+rgb"`` gives: camera images, the robot's own
 state (``proprioception``) and the commanded goal (``desired_goal``), nothing of the
-simulator's object state. The scripted expert reads that state, so it can label any state the
+simulator's object state; or depth images instead of colour (``"proprio+depth"``), or both
+(``"proprio+rgbd"``). The scripted expert reads that state, so it can label any state the
 student reaches: DAgger (Ross et al., 2011) with a privileged teacher. The expert first drives
 ``demo_episodes`` episodes; then, each round, the student drives, every state it visits is
-stored as the student's observation (images as uint8, channels first) with the expert's action
+stored as the student's observation (colour images as uint8, channels first; depth as
+float32, as observed) with the expert's action
 in it, and the student is refitted on everything gathered (:func:`distil`).
 
 The student is a stable-baselines3 PPO ``MultiInputPolicy`` whose features extractor is
@@ -51,8 +53,9 @@ __all__ = ["StudentData", "collect_student", "distil", "fit_student", "train_stu
 
 @dataclass
 class StudentData:
-    """The student's observations (image keys: uint8 ``(n, 3, height, width)``; the others
-    float32 rows) with the expert's actions in those states."""
+    """The student's observations (colour image keys: uint8 ``(n, 3, height, width)``; depth
+    keys: float32 ``(n, height, width, 1)``; the others float32 rows) with the expert's
+    actions in those states."""
 
     observations: dict[str, np.ndarray]
     actions: np.ndarray
@@ -98,7 +101,7 @@ def collect_student(
     student observes it, with the expert's action. Returns the data and how the driver did."""
     spec = observation_spec(_common.Schema.of(_common.config_json(config)), **observation)
     if not spec.has_images:
-        raise InvalidArgumentError("a student observes images: obs_mode must have rgb")
+        raise InvalidArgumentError("a student observes images: obs_mode must have rgb or depth")
     expert = ScriptedPolicy(config)
     space = spec.space()
     assert isinstance(space, spaces.Dict)  # obs_mode has images
@@ -112,7 +115,8 @@ def collect_student(
         active = np.array([r is not None for r in running])
         obs = spec.assemble(flat[active], images[active])
         for key, value in obs.items():
-            chunks[key].append(value.transpose(0, 3, 1, 2).copy() if value.ndim == 4 else value)
+            colour = value.ndim == 4 and value.dtype == np.uint8  # as SB3 transposes them
+            chunks[key].append(value.transpose(0, 3, 1, 2).copy() if colour else value)
         labels.append((actions if actor is None else expert._native.act(flat))[active].copy())
         episode_rows.append(np.array([r for r in running if r is not None], dtype=np.int64))
 
@@ -212,10 +216,10 @@ def distil(
     ``episodes_per_round`` episodes, the expert labels every state, and the student is refitted
     on all data for ``round_updates`` mini-batches; finally ``final_updates`` more with the
     learning rate decaying to 5 %. Episode seeds count up from ``first_seed``. The vector
-    entries' scaler is fitted to the expert's states. torch fits on ``fit_threads`` threads
-    (no environment steps during a fit). ``on_round(r, data, stats, loss)`` is called after
-    each fit (``stats``: how the student drove in round ``r``; ``None`` for round 0 and the
-    final fit)."""
+    entries' scaler and the depth images' are fitted to the expert's states. torch fits on
+    ``fit_threads`` threads (no environment steps during a fit). ``on_round(r, data, stats,
+    loss)`` is called after each fit (``stats``: how the student drove in round ``r``;
+    ``None`` for round 0 and the final fit)."""
     seed = first_seed
 
     def tick(what: str, total: int) -> Callable[[int], None] | None:
@@ -238,6 +242,8 @@ def distil(
     seed += demo_episodes
     encoder = _encoder(model.policy)
     encoder.fit(np.concatenate([data.observations[k] for k in encoder.vector_keys], axis=1))
+    if encoder.depth_keys:
+        encoder.fit_depth([data.observations[k] for k in encoder.depth_keys])
     loss = fit(data, "fit 0", first_updates, 0)
     if on_round is not None:
         on_round(0, data, None, loss)

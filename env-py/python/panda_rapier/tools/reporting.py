@@ -486,7 +486,8 @@ def robustness_table(
     evaluated on seeds ``0 .. episodes - 1`` (the benchmark table's first ones) with no
     randomisation, with each group of :data:`~panda_rapier.pixels.RANDOMIZATION_GROUPS` alone
     at its default ranges, and with all of them (``panda-rapier eval --policy MODEL
-    --visual-randomization NAME``). One column per model, headed by what it was trained with.
+    --visual-randomization NAME``). One column per model, headed by what it sees and what it
+    was trained with.
 
     Returns the markdown and the evaluations (per model and condition, the summary and each
     episode's success and placed flags as strings of 0 and 1)."""
@@ -497,7 +498,8 @@ def robustness_table(
         if run is None or not isinstance(options, dict) or "obs_mode" not in options:
             raise InvalidArgumentError(f"{model} is not a model that sees: no image obs_mode")
         how = options.get("visual_randomization")
-        trained.append("under randomisation" if how not in (None, False) else "on the plain scene")
+        where = "under randomisation" if how not in (None, False) else "on the plain scene"
+        trained.append(f"{options['obs_mode']}, trained {where}")
     records: dict[str, Any] = {}
     cells: dict[tuple[str, str], str] = {}
     total = len(models) * len(ROBUSTNESS_CONDITIONS)
@@ -516,7 +518,7 @@ def robustness_table(
                 )
                 bar.update(1)
     header = "| evaluated with | " + " | ".join(
-        f"`{m.name}` (trained {how})" for m, how in zip(models, trained, strict=True)
+        f"`{m.name}` ({how})" for m, how in zip(models, trained, strict=True)
     )
     lines = [header + " |", "|---" * (len(models) + 1) + "|"]
     for condition in ROBUSTNESS_CONDITIONS:
