@@ -211,12 +211,7 @@ pub fn urdf_visual_parts(
                     collision: MeshCollision::Hull,
                 };
                 let what = format!("{field} (link `{}`, visual {k})", urdf_link.name);
-                let bytes = std::fs::read(&mesh.path).map_err(|e| Error::BadMesh {
-                    field: what.clone(),
-                    path: mesh.path.clone(),
-                    reason: format!("cannot be read: {e}"),
-                })?;
-                for part in mesh.visual(&bytes, &what)?.parts {
+                for part in mesh.visual(&mesh.read(&what)?, &what)?.parts {
                     parts.push(VisualPart {
                         pose: pose * part.pose,
                         color: part.color.or(color),

@@ -122,12 +122,20 @@ impl MeshFile {
     /// [`MeshFile::load`], saying also whether the decomposition came from the cache.
     pub fn load_report(&self, field: &str, cache: &ShapeCache) -> Result<LoadedMesh> {
         self.validate(field)?;
-        let bytes = fs::read(&self.path).map_err(|e| Error::BadMesh {
+        let bytes = self.read(field)?;
+        self.load_bytes(&bytes, field, cache)
+    }
+
+    /// The file's bytes.
+    ///
+    /// # Errors
+    /// [`Error::BadMesh`] naming `field` and the path when the file is missing or unreadable.
+    pub fn read(&self, field: &str) -> Result<Vec<u8>> {
+        fs::read(&self.path).map_err(|e| Error::BadMesh {
             field: field.to_owned(),
             path: self.path.clone(),
             reason: format!("cannot be read: {e}"),
-        })?;
-        self.load_bytes(&bytes, field, cache)
+        })
     }
 
     /// [`MeshFile::load_report`] for a file's contents already in memory (an object compiled

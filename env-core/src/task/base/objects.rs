@@ -18,7 +18,7 @@ use sha2::{Digest, Sha256};
 
 use crate::assets::{shipped_object, ShippedObject, OBJECT_MATERIALS, OBJECT_SET};
 use crate::config::{invalid, non_negative, positive};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::physics::{
     GripperGeometry, MeshCollision, MeshFile, ObjectShape, ObjectVisual, ShapeCache, TopGrasp,
 };
@@ -140,7 +140,7 @@ impl ObjectEntry {
         }
         non_negative(&format!("{field}.friction"), friction)?;
         non_negative(&format!("{field}.rolling_damping"), rolling_damping)?;
-        let (key, mesh, bytes) = match self {
+        let (key, mesh, bytes, shipped) = match self {
             ObjectEntry::Shipped(name) => {
                 let shipped = shipped_object(name).ok_or_else(|| {
                     invalid(
@@ -158,7 +158,12 @@ impl ObjectEntry {
                 })?;
                 // Its convex parts where shipped, else its mesh (decomposed).
                 let bytes = Cow::Borrowed(shipped.collision.unwrap_or(shipped.mesh));
-                (format!("shipped:{name}"), shipped_mesh(shipped), bytes)
+                (
+                    format!("shipped:{name}"),
+                    shipped_mesh(shipped),
+                    bytes,
+                    Some(shipped),
+                )
             }
             ObjectEntry::File(file) => {
                 let collision = match file.collision.as_str() {
@@ -178,16 +183,12 @@ impl ObjectEntry {
                         format!("must be finite and > 0, got {}", file.scale),
                     ));
                 }
-                let bytes = std::fs::read(&file.path).map_err(|e| Error::BadMesh {
-                    field: field.to_owned(),
-                    path: file.path.clone(),
-                    reason: format!("cannot be read: {e}"),
-                })?;
                 let mesh = MeshFile {
                     path: file.path.clone(),
                     scale: [file.scale; 3],
                     collision,
                 };
+                let bytes = mesh.read(field)?;
                 let digest: String = Sha256::digest(&bytes)
                     .iter()
                     .map(|b| format!("{b:02x}"))
@@ -198,7 +199,7 @@ impl ObjectEntry {
                     file.scale,
                     file.collision
                 );
-                (key, mesh, Cow::Owned(bytes))
+                (key, mesh, Cow::Owned(bytes), None)
             }
         };
         let loaded = memo().lock().ok().and_then(|m| m.get(&key).cloned());
@@ -212,7 +213,11 @@ impl ObjectEntry {
                     (urdf.shape, urdf.mass, urdf.visual)
                 } else {
                     let shape = mesh.load_bytes(&bytes, field, &cache)?.shape;
-                    (shape, 0.0, Arc::new(self.visual(&mesh, &bytes, field)?))
+                    let visual = match shipped {
+                        Some(shipped) => shipped_visual(shipped, field)?,
+                        None => mesh.visual(&bytes, field)?,
+                    };
+                    (shape, 0.0, Arc::new(visual))
                 };
                 let geometry = Arc::new(Geometry::of(shape, file_mass, visual, field)?);
                 if let Ok(mut m) = memo().lock() {
@@ -236,28 +241,17 @@ impl ObjectEntry {
     }
 }
 
-impl ObjectEntry {
-    /// How a mesh entry looks: a shipped object's mesh with the shipped colours, a file's
-    /// triangles with its materials' (`mesh` and `bytes`: what it collides with, which for a
-    /// file is the file itself).
-    fn visual(&self, mesh: &MeshFile, bytes: &[u8], field: &str) -> Result<ObjectVisual> {
-        match self {
-            ObjectEntry::Shipped(name) => {
-                let Some(shipped) = shipped_object(name) else {
-                    return Ok(ObjectVisual::default());
-                };
-                let materials = |path: &std::path::Path| {
-                    if path.file_name().is_some_and(|n| n == "objects.mtl") {
-                        Ok(OBJECT_MATERIALS.to_vec())
-                    } else {
-                        Err(std::io::ErrorKind::NotFound.into())
-                    }
-                };
-                MeshFile::new(shipped.source()).visual_with(shipped.mesh, field, &materials)
-            }
-            ObjectEntry::File(_) => mesh.visual(bytes, field),
+/// How a shipped object looks: its visual mesh in the shipped set's colours
+/// (`assets/objects/objects.mtl`, compiled in).
+fn shipped_visual(shipped: &ShippedObject, field: &str) -> Result<ObjectVisual> {
+    let materials = |path: &std::path::Path| {
+        if path.file_name().is_some_and(|n| n == "objects.mtl") {
+            Ok(OBJECT_MATERIALS.to_vec())
+        } else {
+            Err(std::io::ErrorKind::NotFound.into())
         }
-    }
+    };
+    MeshFile::new(shipped.source()).visual_with(shipped.mesh, field, &materials)
 }
 
 /// The mesh a shipped object collides with: its convex parts where shipped, else its mesh
