@@ -100,9 +100,10 @@ class SpatialSoftArgmax(nn.Module):
 class PixelEncoder(BaseFeaturesExtractor):
     """The features of a ``Dict`` observation with images: colour (uint8 ``(3, height,
     width)``, as stable-baselines3 passes them on, scaled to [0, 1] by it) and depth (float32
-    ``(height, width, 1)`` metres, clamped to :data:`DEPTH_CLIP` and standardised by
-    ``depth_mean`` and ``depth_scale``, one pair per depth image, identity until
-    :meth:`fit_depth`). Per image, in key order, a CNN (``channels`` and ``strides``; a 5x5
+    ``(height, width, 1)`` metres, clamped to :data:`DEPTH_CLIP`, less the mean image
+    ``depth_mean`` and divided by ``depth_scale``, one pair per depth image, identity until
+    :meth:`fit_depth`: what differs from the usual scene, in units of how much it usually
+    differs). Per image, in key order, a CNN (``channels`` and ``strides``; a 5x5
     first convolution, 3x3 after it, ReLU between) whose last layer's channels become keypoints
     (:class:`SpatialSoftArgmax`); then the other entries flattened in key order and mapped to
     ``clip((x - mean) / scale, -10, 10)`` (identity until :meth:`fit`)."""
@@ -166,7 +167,8 @@ class PixelEncoder(BaseFeaturesExtractor):
         self.register_buffer("mean", th.zeros(vector_dim))
         self.register_buffer("scale", th.ones(vector_dim))
         if depth_keys:  # a colour student's weights stay as they were
-            self.register_buffer("depth_mean", th.zeros(len(depth_keys)))
+            height, width = observation_space.spaces[depth_keys[0]].shape[:2]  # type: ignore[index]
+            self.register_buffer("depth_mean", th.zeros(len(depth_keys), 1, height, width))
             self.register_buffer("depth_scale", th.ones(len(depth_keys)))
 
     def fit(self, vectors: np.ndarray, min_scale: float = MIN_SCALE) -> None:
@@ -178,17 +180,21 @@ class PixelEncoder(BaseFeaturesExtractor):
         self.scale.copy_(th.as_tensor(scale))
 
     def fit_depth(self, depths: Sequence[np.ndarray]) -> None:
-        """Sets each depth image's mean and scale (standard deviation, at least ``MIN_SCALE``
-        m) from its pixels clamped to :data:`DEPTH_CLIP`: one array of images per depth key,
-        in key order."""
+        """Sets each depth image's mean image (per pixel, of the images clamped to
+        :data:`DEPTH_CLIP`) and scale (the standard deviation of all pixels' differences
+        from it, at least ``MIN_SCALE`` m): one array of ``(n, height, width, 1)`` images per
+        depth key, in key order. A global scale alone (the first try) left the cube a
+        tenth of a unit above the floor's slope, and the student never found it."""
         if len(depths) != len(self.depth_keys):
             raise InvalidArgumentError(
                 f"fit_depth needs one array per depth key {self.depth_keys}, got {len(depths)}"
             )
         for i, images in enumerate(depths):
             clamped = np.minimum(np.asarray(images, dtype=np.float64), DEPTH_CLIP)
-            self.depth_mean[i] = float(clamped.mean())
-            self.depth_scale[i] = max(float(clamped.std()), MIN_SCALE)
+            mean = clamped.mean(axis=0)  # (height, width, 1)
+            scale = float(np.sqrt(np.mean((clamped - mean) ** 2)))
+            self.depth_mean[i] = th.as_tensor(mean.transpose(2, 0, 1))
+            self.depth_scale[i] = max(scale, MIN_SCALE)
 
     def _input(self, key: str, value: th.Tensor) -> th.Tensor:
         if key not in self.depth_keys:
