@@ -56,9 +56,33 @@ TINY = {
 }
 
 
-def _student(arch: dict[str, Any]) -> PPO:
-    env = make_vec_env(ENV_ID, n_envs=1, **OBSERVATION)
+def _student(arch: dict[str, Any], observation: dict[str, Any] = OBSERVATION) -> PPO:
+    env = make_vec_env(ENV_ID, n_envs=1, **observation)
     return PPO("MultiInputPolicy", env, policy_kwargs=policy_kwargs(arch), seed=0, device="cpu")
+
+
+def _assert_dagger_learns(model: PPO, observation: dict[str, Any]) -> None:
+    """Distils ``model`` on 24 episodes and asserts it then predicts the expert's actions in
+    states it never saw far better than the best constant action does (the actions depend
+    on where the cube is)."""
+    config = env_config(ENV_ID)
+    held_out, _ = collect_student(config, observation, 8, first_seed=10_000, num_envs=8)
+
+    def loss() -> float:
+        obs = {k: th.as_tensor(v) for k, v in held_out.observations.items()}
+        with th.no_grad():
+            mean = model.policy.get_distribution(obs).distribution.mean.numpy()
+        return float(np.mean((mean - held_out.actions) ** 2))
+
+    before = loss()
+    distil(
+        model, config, observation, demo_episodes=16, rounds=1, episodes_per_round=8,
+        first_updates=300, round_updates=150, final_updates=100, first_seed=0, batch_size=64,
+        learning_rate=1e-3, num_envs=8,
+    )  # fmt: skip
+    constant = float(np.mean((held_out.actions - held_out.actions.mean(axis=0)) ** 2))
+    after = loss()
+    assert after < 0.6 * constant < before, (before, constant, after)
 
 
 @pytest.fixture(scope="module")
@@ -124,37 +148,16 @@ def test_the_student_observation_holds_the_expert_s_labels() -> None:
 
 
 def test_dagger_improves_the_student_on_a_tiny_budget() -> None:
-    """A student distilled on 24 episodes predicts the expert's actions in states it never saw
-    far better than the best constant action does (the actions depend on where the cube is)."""
-    config = env_config(ENV_ID)
     model = _student(student_architecture({"channels": [8, 16, 8], "strides": [2, 2, 1]}))
-    held_out, _ = collect_student(config, OBSERVATION, 8, first_seed=10_000, num_envs=8)
-    policy = model.policy
-
-    def loss() -> float:
-        obs = {k: th.as_tensor(v) for k, v in held_out.observations.items()}
-        with th.no_grad():
-            mean = policy.get_distribution(obs).distribution.mean.numpy()
-        return float(np.mean((mean - held_out.actions) ** 2))
-
-    before = loss()
-    distil(
-        model, config, OBSERVATION, demo_episodes=16, rounds=1, episodes_per_round=8,
-        first_updates=300, round_updates=150, final_updates=100, first_seed=0, batch_size=64,
-        learning_rate=1e-3, num_envs=8,
-    )  # fmt: skip
-    constant = float(np.mean((held_out.actions - held_out.actions.mean(axis=0)) ** 2))
-    after = loss()
-    assert after < 0.6 * constant < before, (before, constant, after)
+    _assert_dagger_learns(model, OBSERVATION)
 
 
 DEPTH = {"obs_mode": "proprio+depth", "image_size": 48}
 
 
 def test_the_encoder_sees_depth_clamped_and_standardised() -> None:
-    env = make_vec_env(ENV_ID, n_envs=1, obs_mode="proprio+rgbd", image_size=48)
     arch = student_architecture(TINY["student"])
-    model = PPO("MultiInputPolicy", env, policy_kwargs=policy_kwargs(arch), seed=0, device="cpu")
+    model = _student(arch, {"obs_mode": "proprio+rgbd", "image_size": 48})
     encoder = model.policy.features_extractor
     assert isinstance(encoder, PixelEncoder)
     assert encoder.image_keys == ["rgb", "rgb_depth"]
@@ -185,33 +188,14 @@ def test_a_depth_student_learns_and_loads_by_data(tmp_path: Path) -> None:
     """Depth alone (no colour): 24 episodes take the student's prediction of the expert's
     actions in unseen states well under the best constant action's error, and its file
     rebuilds the same policy by data."""
-    config = env_config(ENV_ID)
-    data, _ = collect_student(config, DEPTH, 2, first_seed=7, num_envs=2)
+    data, _ = collect_student(env_config(ENV_ID), DEPTH, 2, first_seed=7, num_envs=2)
     assert data.observations["rgb_depth"].shape == (len(data), 48, 48, 1)
     assert data.observations["rgb_depth"].dtype == np.float32
-    env = make_vec_env(ENV_ID, n_envs=1, **DEPTH)
     arch = student_architecture({"channels": [8, 16, 8], "strides": [2, 2, 1]})
-    model = PPO("MultiInputPolicy", env, policy_kwargs=policy_kwargs(arch), seed=0, device="cpu")
-    held_out, _ = collect_student(config, DEPTH, 8, first_seed=10_000, num_envs=8)
-
-    def loss() -> float:
-        obs = {k: th.as_tensor(v) for k, v in held_out.observations.items()}
-        with th.no_grad():
-            mean = model.policy.get_distribution(obs).distribution.mean.numpy()
-        return float(np.mean((mean - held_out.actions) ** 2))
-
-    before = loss()
-    distil(
-        model, config, DEPTH, demo_episodes=16, rounds=1, episodes_per_round=8,
-        first_updates=300, round_updates=150, final_updates=100, first_seed=0, batch_size=64,
-        learning_rate=1e-3, num_envs=8,
-    )  # fmt: skip
-    encoder = model.policy.features_extractor
-    mean = encoder.depth_mean.numpy()
+    model = _student(arch, DEPTH)
+    _assert_dagger_learns(model, DEPTH)
+    mean = model.policy.features_extractor.depth_mean.numpy()
     assert 1.0 < mean.min() <= mean.max() <= DEPTH_CLIP  # fitted to the scene's depths
-    constant = float(np.mean((held_out.actions - held_out.actions.mean(axis=0)) ** 2))
-    after = loss()
-    assert after < 0.6 * constant < before, (before, constant, after)
     run = {"env_id": ENV_ID, "env_kwargs": DEPTH, "student": arch}
     save_model(model, tmp_path / "model.zip", run)
     student = load_student(tmp_path / "model.zip")

@@ -183,8 +183,7 @@ class PixelEncoder(BaseFeaturesExtractor):
         """Sets each depth image's mean image (per pixel, of the images clamped to
         :data:`DEPTH_CLIP`) and scale (the standard deviation of all pixels' differences
         from it, at least ``MIN_SCALE`` m): one array of ``(n, height, width, 1)`` images per
-        depth key, in key order. A global scale alone (the first try) left the cube a
-        tenth of a unit above the floor's slope, and the student never found it."""
+        depth key, in key order."""
         if len(depths) != len(self.depth_keys):
             raise InvalidArgumentError(
                 f"fit_depth needs one array per depth key {self.depth_keys}, got {len(depths)}"
