@@ -265,3 +265,91 @@ def test_the_documented_lerobot_examples_run(tmp_path: Path) -> None:
             timeout=600, check=False,
         )  # fmt: skip
         assert run.returncode == 0, run.stderr[-3000:]
+
+
+@needs_lerobot
+def test_environment_state_splits_the_state_and_replays(tmp_path: Path) -> None:
+    """With environment_state=True the objects' entries are observation.environment_state
+    and the goals' and robot's observation.state: together exactly the flat observation, in
+    the columns state_split names, and a replay reproduces both."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    from panda_rapier import _common
+    from panda_rapier.learning.lerobot_dataset import (
+        record_lerobot,
+        replay_lerobot_episode,
+        state_split,
+    )
+    from panda_rapier.registration import env_config
+
+    root = tmp_path / "split"
+    summary = record_lerobot(ENV_ID, 2, root, num_envs=2, first_seed=7560, environment_state=True)
+    schema = _common.Schema.of(_common.config_json(env_config(ENV_ID)))
+    state_columns, environment_columns = state_split(schema)
+    assert sorted(state_columns + environment_columns) == list(range(schema.flat_dim))
+    dataset = LeRobotDataset(summary.repo_id, root=root)
+    state_names = dataset.features["observation.state"]["names"]
+    environment_names = dataset.features["observation.environment_state"]["names"]
+    assert state_names[:3] == ["achieved_goal.0", "achieved_goal.1", "achieved_goal.2"]
+    assert "tcp_position.0" in state_names and "cube_position.0" not in state_names
+    assert environment_names[0] == "cube_position.0"
+    assert len(environment_names) == len(environment_columns) == 16
+    for k in range(2):
+        episode = LeRobotDataset(summary.repo_id, root=root, episodes=[k])
+        replay = replay_lerobot_episode(root, k)
+        for key in ("observation.state", "observation.environment_state"):
+            recorded = np.stack([np.asarray(episode[i][key]) for i in range(len(episode))])
+            assert np.array_equal(replay[key], recorded), f"episode {k}, {key}"
+    with pytest.raises(ConfigError, match="environment_state"):
+        record_lerobot("panda_rapier/Reach-v0", 1, tmp_path / "reach", environment_state=True)
+
+
+@needs_lerobot
+def test_a_state_only_act_trains_and_evaluates_with_environment_state(tmp_path: Path) -> None:
+    """ACT refuses inputs without an image or an environment state: on a dataset recorded
+    with --environment-state it trains from state alone, and lerobot-eval runs it on
+    --env.environment_state=true, whose observations match the dataset's features."""
+    from panda_rapier.learning.lerobot_env import LeRobotObservation, PandaRapierEnv
+
+    root = tmp_path / "data"
+    record = subprocess.run(
+        [sys.executable, "-m", "panda_rapier.cli", "demos", "--env", ENV_ID, "--format",
+         "lerobot", "--root", str(root), "--episodes", "2", "--num-envs", "2",
+         "--first-seed", "7570", "--environment-state", "--quiet"],
+        capture_output=True, text=True, timeout=600, check=False,
+    )  # fmt: skip
+    assert record.returncode == 0, record.stderr[-3000:]
+    config = PandaRapierEnv(task="PickAndPlace-v0", environment_state=True)
+    assert config.features["agent_pos"].shape == (31,)
+    assert config.features["environment_state"].shape == (16,)
+    assert config.features_map["environment_state"] == "observation.environment_state"
+    env = LeRobotObservation("PickAndPlace-v0", environment_state=True)
+    obs, _ = env.reset(seed=7571)
+    assert obs["agent_pos"].shape == (31,) and obs["environment_state"].shape == (16,)
+    assert env.observation_space.contains(obs)
+    env.close()
+
+    bin_dir = Path(sys.executable).parent
+    train = subprocess.run(
+        [str(bin_dir / "lerobot-train"), "--dataset.repo_id=panda_rapier/PickAndPlace-expert",
+         f"--dataset.root={root}", "--policy.type=act", "--policy.device=cpu",
+         "--policy.push_to_hub=false", "--policy.pretrained_backbone_weights=null",
+         "--policy.dim_model=32", "--policy.dim_feedforward=64", "--policy.n_heads=2",
+         "--policy.n_encoder_layers=1", "--policy.n_decoder_layers=1", "--policy.use_vae=false",
+         "--policy.chunk_size=5", "--policy.n_action_steps=5", "--steps=2", "--batch_size=2",
+         f"--output_dir={tmp_path / 'train'}", "--save_freq=2", "--wandb.enable=false",
+         "--num_workers=0"],
+        capture_output=True, text=True, timeout=600, check=False,
+    )  # fmt: skip
+    assert train.returncode == 0, train.stderr[-3000:]
+    policy = tmp_path / "train" / "checkpoints" / "last" / "pretrained_model"
+    evaluation = subprocess.run(
+        [str(bin_dir / "lerobot-eval"), f"--policy.path={policy}", "--env.type=panda_rapier",
+         "--env.task=PickAndPlace-v0", "--env.environment_state=true", "--eval.n_episodes=2",
+         "--eval.batch_size=2", "--policy.device=cpu", "--seed=7575",
+         f"--output_dir={tmp_path / 'eval'}"],
+        capture_output=True, text=True, timeout=600, check=False,
+    )  # fmt: skip
+    assert evaluation.returncode == 0, evaluation.stderr[-3000:]
+    report = json.loads((tmp_path / "eval" / "eval_info.json").read_text())
+    assert report["overall"]["n_episodes"] == 2

@@ -464,6 +464,12 @@ def _parser() -> argparse.ArgumentParser:
         "--no-videos", action="store_true", help="lerobot: PNG images instead of videos"
     )
     demos.add_argument("--num-envs", type=_positive, default=8, help="lerobot: environments")
+    demos.add_argument(
+        "--environment-state",
+        action="store_true",
+        help="lerobot: the objects' state as observation.environment_state, the goals and the "
+        "robot's as observation.state (for ACT or Diffusion Policy without images)",
+    )
     demos.add_argument("--quiet", action="store_true", help="no progress bar")
     demos.set_defaults(run=_run_demos)
     return parser
@@ -478,6 +484,7 @@ def _run_demos(args: argparse.Namespace) -> int:
             ("--root", args.root is not None),
             ("--camera", bool(args.camera)),
             ("--no-videos", args.no_videos),
+            ("--environment-state", args.environment_state),
         )
         if given
     ]
@@ -542,6 +549,7 @@ def _run_lerobot_demos(args: argparse.Namespace) -> int:
             num_envs=args.num_envs,
             first_seed=DEMOS_FIRST_SEED if args.first_seed is None else args.first_seed,
             env_kwargs=_env_kwargs(args.env_kwargs),
+            environment_state=args.environment_state,
             progress=lambda done: bar.update(done - bar.n),
         )
     print(

@@ -20,6 +20,12 @@ key                                value
                                    action mode (``dx``, ``dy``, ``dz``, ``gripper`` for ``ee``)
 =================================  ==========================================================
 
+With ``environment_state=True`` the flat observation is split in two, as LeRobot's own
+simulations do (and as ACT and Diffusion Policy need when they see no images):
+``observation.state`` holds the goals and the robot's own state, and
+``observation.environment_state`` the task's entries (the objects' state: ``cube_position``,
+...; the slots the schema marks as the task's); :func:`state_split` says which columns go where.
+
 plus LeRobot's own ``timestamp``, ``frame_index``, ``episode_index``, ``index`` and
 ``task_index``; the task string of every episode is the task's one-line summary. The frame
 rate is the environment's control rate (25 fps).
@@ -61,6 +67,7 @@ __all__ = [
     "default_repo_id",
     "record_lerobot",
     "replay_lerobot_episode",
+    "state_split",
 ]
 
 #: The file beside LeRobot's metadata with what its format has no place for.
@@ -116,6 +123,25 @@ def _state_names(schema: _common.Schema) -> list[str]:
     return names
 
 
+def state_split(schema: _common.Schema) -> tuple[list[int], list[int]]:
+    """The flat observation's columns that ``environment_state=True`` writes as
+    ``observation.state`` (the goals' and the robot's) and as
+    ``observation.environment_state`` (the task's: its objects' state), each in flat order.
+    A task without entries of its own (Reach) has no environment state: a
+    :class:`~panda_rapier.errors.ConfigError`."""
+    state: list[int] = []
+    environment: list[int] = []
+    for slot in schema.slots:
+        columns = range(int(slot["start"]), int(slot["stop"]))
+        (environment if slot.get("source") == "task" else state).extend(columns)
+    if not environment:
+        raise ConfigError(
+            "environment_state needs a task with object entries in its observation; this "
+            "task's observation is the goals and the robot only (write observation.state alone)"
+        )
+    return state, environment
+
+
 def _task_summary(task: str) -> str:
     return next(str(t["summary"]) for t in TASKS if t["name"] == task)
 
@@ -133,14 +159,16 @@ def record_lerobot(
     num_threads: int | None = None,
     first_seed: int = DEMOS_FIRST_SEED,
     env_kwargs: Mapping[str, Any] | None = None,
+    environment_state: bool = False,
     progress: Callable[[int], object] | None = None,
 ) -> LeRobotRecording:
     """Records ``episodes`` episodes of the scripted expert on ``env_id`` (with
     ``env_kwargs``) as a LeRobot dataset in the directory ``root`` (which must not exist yet;
     see the module's documentation). ``cameras`` (as for :class:`~panda_rapier.PandaEnv`,
     e.g. ``{"front": panda_rapier.pixels.DEFAULT_CAMERA}``) adds an image stream per camera
-    at ``image_size``; ``None`` records states only. ``progress`` is called with the number
-    of finished episodes."""
+    at ``image_size``; ``None`` records states only. ``environment_state`` splits the flat
+    observation into ``observation.state`` and ``observation.environment_state``
+    (:func:`state_split`). ``progress`` is called with the number of finished episodes."""
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
         raise InvalidArgumentError(f"episodes must be an int >= 1, got {episodes!r}")
     root = Path(root)
@@ -158,14 +186,23 @@ def record_lerobot(
     camera_keys = tuple(cameras or ())
     obs_mode = "state+rgb" if camera_keys else "state"
 
+    if not isinstance(environment_state, bool):
+        raise InvalidArgumentError(
+            f"environment_state must be True or False, got {environment_state!r}"
+        )
+    names = _state_names(schema)
+    state_columns, environment_columns = (
+        state_split(schema) if environment_state else (list(range(schema.flat_dim)), [])
+    )
+
     probe = PandaEnv(**config)
     fps = int(probe.metadata["render_fps"])  # the control rate
     probe.close()
     features: dict[str, dict[str, Any]] = {
         "observation.state": {
             "dtype": "float32",
-            "shape": (schema.flat_dim,),
-            "names": _state_names(schema),
+            "shape": (len(state_columns),),
+            "names": [names[i] for i in state_columns],
         },
         "action": {
             "dtype": "float32",
@@ -173,6 +210,12 @@ def record_lerobot(
             "names": action_names(control_mode, schema.action_dim),
         },
     }
+    if environment_columns:
+        features["observation.environment_state"] = {
+            "dtype": "float32",
+            "shape": (len(environment_columns),),
+            "names": [names[i] for i in environment_columns],
+        }
     height, width = (image_size, image_size) if isinstance(image_size, int) else image_size
     for key in camera_keys:
         features[f"observation.images.{key}"] = {
@@ -223,10 +266,14 @@ def record_lerobot(
             if episode is None:
                 continue
             frame: dict[str, Any] = {
-                "observation.state": np.array(observations[i], dtype=np.float32),
+                "observation.state": np.array(observations[i, state_columns], dtype=np.float32),
                 "action": np.array(actions[i], dtype=np.float32),
                 "task": task,
             }
+            if environment_columns:
+                frame["observation.environment_state"] = np.array(
+                    observations[i, environment_columns], dtype=np.float32
+                )
             if assembled is not None:
                 for key in camera_keys:
                     frame[f"observation.images.{key}"] = np.array(assembled[key][i])
@@ -259,6 +306,7 @@ def record_lerobot(
         "env_id": env_id,
         "config": report.config,
         "obs_mode": obs_mode,
+        "environment_state": environment_state,
         "cameras": {key: dict(value) for key, value in (cameras or {}).items()},
         "image_size": [height, width],
         "first_seed": first_seed,
@@ -291,8 +339,8 @@ def record_lerobot(
 def replay_lerobot_episode(root: str | Path, episode_index: int) -> dict[str, np.ndarray]:
     """Replays episode ``episode_index`` of the dataset at ``root`` from its seed, stream and
     recorded actions; returns the states the environment produced (``observation.state``,
-    one row per recorded frame) and the actions replayed (``action``), for comparison with
-    the recorded ones."""
+    and ``observation.environment_state`` where the dataset has it, one row per recorded
+    frame) and the actions replayed (``action``), for comparison with the recorded ones."""
     root = Path(root)
     meta = json.loads((root / LEROBOT_META_FILE).read_text())
     episodes = meta["episodes"]
@@ -322,7 +370,15 @@ def replay_lerobot_episode(root: str | Path, episode_index: int) -> dict[str, np
             obs, *_ = vec.step(batch)
     finally:
         vec.close()
-    return {"observation.state": np.stack(states), "action": actions.astype(np.float32)}
+    flat = np.stack(states)
+    if not meta.get("environment_state", False):
+        return {"observation.state": flat, "action": actions.astype(np.float32)}
+    state_columns, environment_columns = state_split(schema)
+    return {
+        "observation.state": flat[:, state_columns],
+        "observation.environment_state": flat[:, environment_columns],
+        "action": actions.astype(np.float32),
+    }
 
 
 def _flat_row(obs: Mapping[str, np.ndarray], schema: _common.Schema, row: int) -> np.ndarray:

@@ -18,7 +18,11 @@ the dataset recorded them. Each environment is :class:`LeRobotObservation`: a
 :class:`~panda_rapier.PandaEnv` whose observations carry LeRobot's keys, ``agent_pos`` (the
 flat observation, what the datasets hold as ``observation.state``) and ``pixels`` (a dict of
 ``(H, W, 3)`` uint8 images by camera, ``observation.images.<camera>``), with the task's summary
-as ``task_description`` and ``info["is_success"]`` as every panda_rapier env reports it.
+as ``task_description`` and ``info["is_success"]`` as every panda_rapier env reports it. With
+``environment_state=true`` (for a dataset recorded with ``--environment-state``), ``agent_pos``
+is the goals and the robot's state and ``environment_state`` the objects'
+(``observation.environment_state``), split as
+:func:`panda_rapier.learning.lerobot_dataset.state_split` says.
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ from .. import _common
 from ..errors import ConfigError
 from ..pixels import DEFAULT_CAMERA, DEFAULT_IMAGE_SIZE
 from ..registration import ENV_IDS, TASKS, env_config, variant
+from .lerobot_dataset import state_split
 
 __all__ = ["LeRobotObservation", "PandaRapierEnv"]
 
@@ -44,13 +49,15 @@ _GOAL_KEYS = ("achieved_goal", "desired_goal", "observation")
 
 class LeRobotObservation(gym.Wrapper):
     """``gym.make("panda_rapier/<task>")`` with LeRobot's observation keys (see the module
-    documentation): ``agent_pos`` and, with ``cameras``, ``pixels``."""
+    documentation): ``agent_pos``, with ``environment_state`` ``environment_state``, and with
+    ``cameras`` ``pixels``."""
 
     def __init__(
         self,
         task: str,
         cameras: Sequence[str] = (),
         image_size: int = DEFAULT_IMAGE_SIZE,
+        environment_state: bool = False,
         **env_kwargs: Any,
     ) -> None:
         env_id = f"panda_rapier/{task}"
@@ -69,9 +76,15 @@ class LeRobotObservation(gym.Wrapper):
             )
         super().__init__(gym.make(env_id, **options))
         self._schema = _common.Schema.of(_common.config_json(env_config(env_id, **env_kwargs)))
+        self._split = state_split(self._schema) if environment_state else None
+        state_dim = self._schema.flat_dim if self._split is None else len(self._split[0])
         spaces: dict[str, gym.Space[Any]] = {
-            "agent_pos": gym.spaces.Box(-np.inf, np.inf, (self._schema.flat_dim,), dtype=np.float32)
+            "agent_pos": gym.spaces.Box(-np.inf, np.inf, (state_dim,), dtype=np.float32)
         }
+        if self._split is not None:
+            spaces["environment_state"] = gym.spaces.Box(
+                -np.inf, np.inf, (len(self._split[1]),), dtype=np.float32
+            )
         if self._cameras:
             spaces["pixels"] = gym.spaces.Dict(
                 {key: self.env.observation_space[key] for key in self._cameras}  # type: ignore[index]
@@ -90,6 +103,9 @@ class LeRobotObservation(gym.Wrapper):
         for key in _GOAL_KEYS:
             flat[self._schema.part(key)] = obs[key]
         converted: dict[str, Any] = {"agent_pos": flat}
+        if self._split is not None:
+            converted["agent_pos"] = flat[self._split[0]]
+            converted["environment_state"] = flat[self._split[1]]
         if self._cameras:
             converted["pixels"] = {key: obs[key] for key in self._cameras}
         return converted
@@ -118,6 +134,9 @@ class PandaRapierEnv(EnvConfig):
     #: Image streams (keys), each the observation camera at ``image_size``.
     cameras: list[str] = field(default_factory=list)
     image_size: int = DEFAULT_IMAGE_SIZE
+    #: The objects' state apart from the robot's, as ``observation.environment_state`` (for
+    #: datasets recorded with ``environment_state=True``).
+    environment_state: bool = False
     features: dict[str, PolicyFeature] = field(default_factory=dict)
     features_map: dict[str, str] = field(default_factory=dict)
 
@@ -129,11 +148,18 @@ class PandaRapierEnv(EnvConfig):
                 f"'PickAndPlace-v0'), got {self.task!r}"
             )
         schema = _common.Schema.of(_common.config_json(env_config(env_id)))
+        split = state_split(schema) if self.environment_state else None
+        state_dim = schema.flat_dim if split is None else len(split[0])
         self.features = {
             "action": PolicyFeature(type=FeatureType.ACTION, shape=(schema.action_dim,)),
-            "agent_pos": PolicyFeature(type=FeatureType.STATE, shape=(schema.flat_dim,)),
+            "agent_pos": PolicyFeature(type=FeatureType.STATE, shape=(state_dim,)),
         }
         self.features_map = {"action": "action", "agent_pos": "observation.state"}
+        if split is not None:
+            self.features["environment_state"] = PolicyFeature(
+                type=FeatureType.ENV, shape=(len(split[1]),)
+            )
+            self.features_map["environment_state"] = "observation.environment_state"
         for key in self.cameras:
             self.features[f"pixels/{key}"] = PolicyFeature(
                 type=FeatureType.VISUAL, shape=(self.image_size, self.image_size, 3)
@@ -143,7 +169,11 @@ class PandaRapierEnv(EnvConfig):
     @property
     def gym_kwargs(self) -> dict[str, Any]:
         """What every environment is built with (besides ``task``)."""
-        return {"cameras": list(self.cameras), "image_size": self.image_size}
+        return {
+            "cameras": list(self.cameras),
+            "image_size": self.image_size,
+            "environment_state": self.environment_state,
+        }
 
     def create_envs(
         self, n_envs: int, use_async_envs: bool = False
