@@ -206,6 +206,24 @@ def test_the_benchmark_env_has_lerobots_keys_and_reports_success() -> None:
         PandaRapierEnv(task="Nothing-v0")
 
 
+def _train_tiny_act(root: Path, out: Path) -> Path:
+    """A tiny ACT trained two steps by lerobot-train on the dataset at ``root``; returns its
+    checkpoint's ``pretrained_model`` directory."""
+    train = subprocess.run(
+        [str(Path(sys.executable).parent / "lerobot-train"),
+         "--dataset.repo_id=panda_rapier/PickAndPlace-expert",
+         f"--dataset.root={root}", "--policy.type=act", "--policy.device=cpu",
+         "--policy.push_to_hub=false", "--policy.pretrained_backbone_weights=null",
+         "--policy.dim_model=32", "--policy.dim_feedforward=64", "--policy.n_heads=2",
+         "--policy.n_encoder_layers=1", "--policy.n_decoder_layers=1", "--policy.use_vae=false",
+         "--policy.chunk_size=5", "--policy.n_action_steps=5", "--steps=2", "--batch_size=2",
+         f"--output_dir={out}", "--save_freq=2", "--wandb.enable=false", "--num_workers=0"],
+        capture_output=True, text=True, timeout=600, check=False,
+    )  # fmt: skip
+    assert train.returncode == 0, train.stderr[-3000:]
+    return out / "checkpoints" / "last" / "pretrained_model"
+
+
 @needs_lerobot
 def test_lerobot_train_and_lerobot_eval_run_on_a_recorded_dataset(tmp_path: Path) -> None:
     """The documented commands: a tiny ACT trained two steps by lerobot-train on a dataset
@@ -218,19 +236,7 @@ def test_lerobot_train_and_lerobot_eval_run_on_a_recorded_dataset(tmp_path: Path
     record_lerobot(ENV_ID, 2, root, cameras={"front": DEFAULT_CAMERA}, image_size=32,
                    num_envs=2, first_seed=7540)  # fmt: skip
     bin_dir = Path(sys.executable).parent
-    train = subprocess.run(
-        [str(bin_dir / "lerobot-train"), "--dataset.repo_id=panda_rapier/PickAndPlace-expert",
-         f"--dataset.root={root}", "--policy.type=act", "--policy.device=cpu",
-         "--policy.push_to_hub=false", "--policy.pretrained_backbone_weights=null",
-         "--policy.dim_model=32", "--policy.dim_feedforward=64", "--policy.n_heads=2",
-         "--policy.n_encoder_layers=1", "--policy.n_decoder_layers=1", "--policy.use_vae=false",
-         "--policy.chunk_size=5", "--policy.n_action_steps=5", "--steps=2", "--batch_size=2",
-         f"--output_dir={tmp_path / 'train'}", "--save_freq=2", "--wandb.enable=false",
-         "--num_workers=0"],
-        capture_output=True, text=True, timeout=600, check=False,
-    )  # fmt: skip
-    assert train.returncode == 0, train.stderr[-3000:]
-    policy = tmp_path / "train" / "checkpoints" / "last" / "pretrained_model"
+    policy = _train_tiny_act(root, tmp_path / "train")
     assert (policy / "model.safetensors").is_file()
     evaluation = subprocess.run(
         [str(bin_dir / "lerobot-eval"), f"--policy.path={policy}", "--env.type=panda_rapier",
@@ -330,19 +336,7 @@ def test_a_state_only_act_trains_and_evaluates_with_environment_state(tmp_path: 
     env.close()
 
     bin_dir = Path(sys.executable).parent
-    train = subprocess.run(
-        [str(bin_dir / "lerobot-train"), "--dataset.repo_id=panda_rapier/PickAndPlace-expert",
-         f"--dataset.root={root}", "--policy.type=act", "--policy.device=cpu",
-         "--policy.push_to_hub=false", "--policy.pretrained_backbone_weights=null",
-         "--policy.dim_model=32", "--policy.dim_feedforward=64", "--policy.n_heads=2",
-         "--policy.n_encoder_layers=1", "--policy.n_decoder_layers=1", "--policy.use_vae=false",
-         "--policy.chunk_size=5", "--policy.n_action_steps=5", "--steps=2", "--batch_size=2",
-         f"--output_dir={tmp_path / 'train'}", "--save_freq=2", "--wandb.enable=false",
-         "--num_workers=0"],
-        capture_output=True, text=True, timeout=600, check=False,
-    )  # fmt: skip
-    assert train.returncode == 0, train.stderr[-3000:]
-    policy = tmp_path / "train" / "checkpoints" / "last" / "pretrained_model"
+    policy = _train_tiny_act(root, tmp_path / "train")
     evaluation = subprocess.run(
         [str(bin_dir / "lerobot-eval"), f"--policy.path={policy}", "--env.type=panda_rapier",
          "--env.task=PickAndPlace-v0", "--env.environment_state=true", "--eval.n_episodes=2",

@@ -1,5 +1,8 @@
-# The offline comparison of docs/training.md (2026-11-29, a student that sees depth). A lab
-# record, not part of the package: run as python depth_diag.py TRAIN_EPISODES HELD_OUT UPDATES.
+# The offline comparison of docs/training.md (2026-11-29, a student that sees depth), with the
+# held-out error also split into the first 15 steps of each episode and the rest (second
+# session, 2026-11-30). A lab record, not part of the package: run as
+# python depth_diag.py TRAIN_EPISODES HELD_OUT UPDATES [NAME FILTER...]. output.txt: the first session's
+# run (without the split); output-early.txt: the second's.
 """Held-out action error of students on fixed expert data: colour against depth standardised
 three ways (one mean and scale; a mean image and one scale; a mean image and a scale image)."""
 import sys, time
@@ -44,8 +47,19 @@ class PixelScale(PixelEncoder):
 def subset(data, keys):
     return StudentData({k: data.observations[k] for k in keys}, data.actions, data.episode_index, data.episode_seeds)
 
+# Each held-out row's step within its episode (rows of an episode come in time order).
+EARLY = 15
+step_in_episode = np.zeros(len(held), dtype=np.int64)
+seen: dict[int, int] = {}
+for i, e in enumerate(held.episode_index):
+    step_in_episode[i] = seen.get(int(e), 0)
+    seen[int(e)] = step_in_episode[i] + 1
+early = step_in_episode < EARLY
+print(f"held-out rows in steps 0-{EARLY - 1}: {int(early.sum())} of {len(held)}", flush=True)
 constant = float(np.mean((held.actions - held.actions.mean(axis=0)) ** 2))
 print(f"constant action: {constant:.4f}", flush=True)
+const_rows = np.mean((held.actions - held.actions.mean(axis=0)) ** 2, axis=1)
+print(f"constant action, steps 0-{EARLY - 1}: {const_rows[early].mean():.4f}, later {const_rows[~early].mean():.4f}", flush=True)
 variants = [("colour", "proprio+rgb", "rgb", PixelEncoder), ("depth, one mean and scale", "proprio+depth", "rgb_depth", Global),
             ("depth, mean image and one scale", "proprio+depth", "rgb_depth", PixelEncoder), ("depth, mean image and scale image", "proprio+depth", "rgb_depth", PixelScale)]
 only = sys.argv[4:] 
@@ -62,15 +76,17 @@ for name, mode, image, cls in variants:
         enc.fit_depth([train.observations["rgb_depth"]])
     t = time.time()
     tr, he = subset(train, keys), subset(held, keys)
-    def loss(d):
+    def loss(d, rows=None):
         out = []
         for i in range(0, len(d), 512):
             b = {k: th.as_tensor(v[i:i+512]) for k, v in d.observations.items()}
             with th.no_grad():
                 out.append(model.policy.get_distribution(b).distribution.mean.numpy())
-        return float(np.mean((np.concatenate(out) - d.actions) ** 2))
+        err = np.mean((np.concatenate(out) - d.actions) ** 2, axis=1)
+        return float(np.mean(err if rows is None else err[rows]))
     curve = []
     for chunk in range(4):
         fit_student(model, tr, updates=UPDATES // 4, batch_size=128, learning_rate=5e-4, seed=chunk)
         curve.append(f"{loss(he):.4f}")
     print(f"{name}: held-out MSE by quarter {curve}; train {loss(tr):.4f}; {time.time()-t:.0f} s", flush=True)
+    print(f"{name}: held-out MSE, steps 0-{EARLY - 1} of each episode {loss(he, early):.4f}, the later steps {loss(he, ~early):.4f}", flush=True)
