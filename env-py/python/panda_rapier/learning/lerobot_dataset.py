@@ -129,16 +129,15 @@ def state_split(schema: _common.Schema) -> tuple[list[int], list[int]]:
     ``observation.environment_state`` (the task's: its objects' state), each in flat order.
     A task without entries of its own (Reach) has no environment state: a
     :class:`~panda_rapier.errors.ConfigError`."""
-    state: list[int] = []
-    environment: list[int] = []
-    for slot in schema.slots:
-        columns = range(int(slot["start"]), int(slot["stop"]))
-        (environment if slot.get("source") == "task" else state).extend(columns)
-    if not environment:
+    try:
+        task = schema.source_part("task")
+    except InvalidArgumentError:
         raise ConfigError(
             "environment_state needs a task with object entries in its observation; this "
             "task's observation is the goals and the robot only (write observation.state alone)"
-        )
+        ) from None
+    environment = list(range(task.start, task.stop))
+    state = [i for i in range(schema.flat_dim) if not task.start <= i < task.stop]
     return state, environment
 
 
