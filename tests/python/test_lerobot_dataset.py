@@ -10,6 +10,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -170,6 +171,20 @@ def test_without_lerobot_the_error_names_the_extra(tmp_path: Path) -> None:
 
     with pytest.raises(ImportError, match=r"panda-rapier\[lerobot\]"):
         record_lerobot(ENV_ID, 1, tmp_path / "x")
+    # panda-rapier eval on a LeRobot policy's directory says the same (exit 2, no traceback).
+    policy = tmp_path / "pretrained_model"
+    policy.mkdir()
+    for name in ("config.json", "model.safetensors"):
+        (policy / name).write_text("{}")
+    for name in ("policy_preprocessor.json", "policy_postprocessor.json"):
+        (policy / name).write_text(json.dumps({"steps": []}))
+    done = subprocess.run(
+        [sys.executable, "-m", "panda_rapier.cli", "eval", "--policy", str(policy), "--env",
+         ENV_ID, "--episodes", "1", "--quiet"],
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert done.returncode == 2 and "panda-rapier[lerobot]" in done.stderr, done.stderr
+    assert "Traceback" not in done.stderr
 
 
 @needs_lerobot
@@ -250,6 +265,19 @@ def test_lerobot_train_and_lerobot_eval_run_on_a_recorded_dataset(tmp_path: Path
     overall = report["overall"]
     assert overall["n_episodes"] == 2
     assert 0.0 <= overall["pc_success"] <= 100.0
+    # The same policy acted out by panda-rapier eval (the id read from its dataset), on the
+    # same seeds, from the same camera at the size the policy's input has.
+    ours = subprocess.run(
+        [sys.executable, "-m", "panda_rapier.cli", "eval", "--policy", str(policy),
+         "--episodes", "2", "--num-envs", "2", "--seed", "7550", "--quiet",
+         "--json", str(tmp_path / "ours.json")],
+        capture_output=True, text=True, timeout=600, check=False,
+    )  # fmt: skip
+    assert ours.returncode == 0, ours.stderr[-3000:]
+    mine = json.loads((tmp_path / "ours.json").read_text())
+    assert mine["episodes"] == 2 and mine["inference"] == "lerobot-torch-f32"
+    assert [e["seed"] for e in mine["episode_records"]] == [7550, 7551]
+    assert mine["environment"]["lerobot"] and mine["config"]["task"]["name"] == "pick_and_place"
 
 
 @needs_lerobot
@@ -347,3 +375,43 @@ def test_a_state_only_act_trains_and_evaluates_with_environment_state(tmp_path: 
     assert evaluation.returncode == 0, evaluation.stderr[-3000:]
     report = json.loads((tmp_path / "eval" / "eval_info.json").read_text())
     assert report["overall"]["n_episodes"] == 2
+
+    # panda-rapier eval acts it out too. Each environment has its own view of the policy (ACT's
+    # queue of planned actions), reset when a new episode starts there, so an episode's actions
+    # depend on neither the episodes beside it nor the one before. An episode also depends on
+    # the environment's random stream (its env_index), so the episodes compared are those that
+    # ran on environment 0 in both evaluations. 23 steps, not a multiple of the 5 actions ACT
+    # plans at a time: a queue not reset would carry actions into the next episode; the dense
+    # reward makes every step show in the return.
+    from panda_rapier.agents.evaluation import evaluate
+    from panda_rapier.agents.inference import resolve_policy
+
+    resolved = resolve_policy(policy)
+    assert resolved.env_id == ENV_ID  # read from the dataset the policy was trained on
+    dense = resolve_policy(policy, "panda_rapier/PickAndPlaceDense-v0", {"max_episode_steps": 23})
+    on_env_0 = []
+    for num_envs in (1, 3):
+        report = evaluate(dense.policy, dense.config, 7, num_envs=num_envs, first_seed=7576)
+        assert report.inference == "lerobot-torch-f32"
+        on_env_0.append({e.seed: e.episode_return for e in report.episodes if e.env_index == 0})
+    assert len(on_env_0[1]) >= 2  # environment 0 ran a second episode in the 3-environment run
+    assert {seed: on_env_0[0][seed] for seed in on_env_0[1]} == on_env_0[1]
+    assert len(set(on_env_0[0].values())) > 1  # the episodes differ: the test can fail
+
+    # Bad input: an environment whose observation does not fit the policy, a directory that is
+    # no policy, a processor step named by a Python class path (which loading would import).
+    with pytest.raises(ConfigError, match=r"observation\.state"):
+        resolve_policy(policy, "panda_rapier/Stack-v0")
+    with pytest.raises(InvalidArgumentError, match="not a LeRobot policy"):
+        resolve_policy(tmp_path)
+    hostile = tmp_path / "hostile"
+    shutil.copytree(policy, hostile)
+    pipeline = json.loads((hostile / "policy_preprocessor.json").read_text())
+    step = pipeline["steps"][0]
+    step["class"] = "os.system"
+    del step["registry_name"]
+    (hostile / "policy_preprocessor.json").write_text(json.dumps(pipeline))
+    from panda_rapier.agents.model_file import UntrustedModelError
+
+    with pytest.raises(UntrustedModelError, match="--trust-model-file"):
+        resolve_policy(hostile)

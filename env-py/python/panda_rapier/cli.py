@@ -93,15 +93,18 @@ def _parser() -> argparse.ArgumentParser:
     evaluation.add_argument(
         "--policy",
         default="scripted",
-        help="'scripted' (the task's expert), 'random' (uniform actions, seeded by episode) "
-        "or the path of a stable-baselines3 model .zip (default: scripted)",
+        help="'scripted' (the task's expert), 'random' (uniform actions, seeded by episode), "
+        "the path of a stable-baselines3 model .zip, or a LeRobot policy's directory "
+        "(lerobot-train's checkpoints/*/pretrained_model; needs the lerobot extra) "
+        "(default: scripted)",
     )
     evaluation.add_argument(
         "--env-id",
         "--env",
         choices=ENV_IDS,
         default=None,
-        help=f"environment (default: run.json beside the model, else {DEFAULT_ENV_ID})",
+        help=f"environment (default: run.json beside the model, else {DEFAULT_ENV_ID}; for a "
+        "LeRobot policy the id its training dataset was recorded on)",
     )
     evaluation.add_argument(
         "--control",

@@ -103,7 +103,9 @@ class EvaluationReport:
     idle_env_steps: int = 0
     #: How the actions were computed: ``scripted``, ``native-f64``
     #: (:class:`~panda_rapier.agents.inference.PolicyNetwork`), ``torch-f32`` (a stable-baselines3
-    #: model's ``predict``) or ``python`` (any other function).
+    #: model's ``predict``), ``lerobot-torch-f32`` (a LeRobot policy,
+    #: :class:`~panda_rapier.agents.lerobot_policy.LeRobotPolicy`) or ``python`` (any other
+    #: function).
     inference: str = "python"
     #: What the episodes' outcomes depend on (:func:`evaluation_environment`).
     environment: dict[str, str] = field(default_factory=dict)
@@ -232,7 +234,8 @@ def _actor(
 ) -> tuple[Actor, str, str]:
     """The policy as an :data:`Actor`, a name for it and its inference. ``running_seeds``
     gives the seed of the episode each environment runs (``None``: idle), for a policy that
-    acts by episode (:class:`RandomPolicy`)."""
+    acts by episode (:class:`RandomPolicy`, or anything with an ``act_by_episode(flat,
+    observation, seeds)``: :class:`~panda_rapier.agents.lerobot_policy.LeRobotPolicy`)."""
     if isinstance(policy, ScriptedPolicy):
         native = policy._native
         return (lambda flat, _images: native.act(flat)), "scripted", "scripted"
@@ -242,6 +245,14 @@ def _actor(
         if spec.has_sensors:
             raise InvalidArgumentError("a PolicyNetwork acts on state observations only")
         return (lambda flat, _images: policy.act(flat)), repr(policy), NATIVE
+    act_by_episode = getattr(policy, "act_by_episode", None)
+    if callable(act_by_episode):  # a policy with state across steps (a LeRobot policy)
+        inference = str(getattr(policy, "inference", "python"))
+
+        def by_episode(flat: np.ndarray, images: np.ndarray | None) -> np.ndarray:
+            return act_by_episode(flat, spec.assemble(flat, images), running_seeds())
+
+        return by_episode, repr(policy), inference
     predict = getattr(policy, "predict", None)
     if not callable(predict):
         if callable(policy):  # already a function of flat observation rows
@@ -369,6 +380,11 @@ OUTCOME_FIELDS: dict[str, tuple[str, ...]] = {
         "inference", "panda_rapier", "machine", "libc", "cpu", "cpu_flags", "torch",
         "torch_cpu_capability", "stable_baselines3", "numpy",
     ),
+    # A LeRobot policy (panda_rapier.agents.lerobot_policy): torch under LeRobot's code.
+    "lerobot-torch-f32": (
+        "inference", "panda_rapier", "machine", "libc", "cpu", "cpu_flags", "torch",
+        "torch_cpu_capability", "lerobot", "numpy",
+    ),
 }  # fmt: skip
 
 
@@ -377,8 +393,9 @@ def evaluation_environment(inference: str) -> dict[str, str]:
     version, the CPU architecture (``machine``) and C library (``libc``: the physics calls its
     maths routines), numpy's version and, where torch is imported, its version, the CPU
     capability its kernels use (``ATEN_CPU_CAPABILITY`` can lower it) and stable-baselines3's
-    version, and the CPU's model and vector extensions (``cpu``, ``cpu_flags``: the BLAS under
-    torch picks its matrix kernels by them, whatever ``ATEN_CPU_CAPABILITY`` says).
+    version, lerobot's where it is imported, and the CPU's model and vector extensions
+    (``cpu``, ``cpu_flags``: the BLAS under torch picks its matrix kernels by them, whatever
+    ``ATEN_CPU_CAPABILITY`` says).
     :data:`OUTCOME_FIELDS` says which of them matter for which inference."""
     import sys
 
@@ -401,6 +418,10 @@ def evaluation_environment(inference: str) -> dict[str, str]:
     sb3 = sys.modules.get("stable_baselines3")
     if sb3 is not None:
         environment["stable_baselines3"] = str(sb3.__version__)
+    if "lerobot" in sys.modules:
+        from importlib.metadata import version
+
+        environment["lerobot"] = version("lerobot")
     return environment
 
 

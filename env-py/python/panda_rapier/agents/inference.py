@@ -32,7 +32,7 @@ import numpy as np
 from gymnasium import spaces
 
 from .. import _common, _native
-from ..errors import InvalidArgumentError
+from ..errors import ConfigError, InvalidArgumentError
 from ..pixels import split_options
 from ..policy import RandomPolicy, ScriptedPolicy, observation_rows
 from ..registration import DEFAULT_ENV_ID, ENV_IDS, env_config
@@ -503,9 +503,12 @@ def resolve_policy(
     trust: bool = False,
 ) -> EvaluatedPolicy:
     """The policy ``spec`` names, as ``panda-rapier eval --policy SPEC`` evaluates it:
-    ``"scripted"`` (the task's expert), ``"random"`` (uniform actions, seeded by episode) or a
-    model file (:func:`load_policy`). A model runs in the environment recorded with it (its id
-    and options; ``env_id`` replaces the id, and then the recorded options are dropped);
+    ``"scripted"`` (the task's expert), ``"random"`` (uniform actions, seeded by episode), a
+    model file (:func:`load_policy`) or a LeRobot policy's directory
+    (:class:`~panda_rapier.agents.lerobot_policy.LeRobotPolicy`; its environment is ``env_id``,
+    else the id its training dataset was recorded on). A model runs in the environment
+    recorded with it (its id and options; ``env_id`` replaces the id, and then the recorded
+    options are dropped);
     ``overrides`` (options such as ``control_mode``, ``arm``, ``max_episode_steps``) apply last.
     """
     overrides = dict(overrides or {})
@@ -515,9 +518,12 @@ def resolve_policy(
         policy: Any = ScriptedPolicy(config) if spec == "scripted" else RandomPolicy(config)
         return EvaluatedPolicy(policy, chosen, config, {}, str(spec))
     path = Path(spec)
+    if path.is_dir():
+        return _resolve_lerobot_policy(path, env_id, overrides, inference, trust)
     if not path.is_file():
         raise InvalidArgumentError(
-            f"--policy must be 'scripted', 'random' or a model file; {path} does not exist"
+            f"--policy must be 'scripted', 'random', a model file or a LeRobot policy "
+            f"directory; {path} does not exist"
         )
     run = read_run_info(path) or {}
     recorded_id = run.get("env_id") if run.get("env_id") in ENV_IDS else None
@@ -533,3 +539,31 @@ def resolve_policy(
     return EvaluatedPolicy(
         policy, chosen, env_config(chosen, **overrides), observation, str(path), fallback
     )
+
+
+def _resolve_lerobot_policy(
+    path: Path,
+    env_id: str | None,
+    overrides: Mapping[str, Any],
+    inference: str,
+    trust: bool,
+) -> EvaluatedPolicy:
+    """A LeRobot policy's directory as ``panda-rapier eval`` evaluates it."""
+    from .lerobot_policy import LeRobotPolicy, is_lerobot_policy, lerobot_policy_env_id
+
+    if not is_lerobot_policy(path):
+        raise InvalidArgumentError(
+            f"--policy {path} is a directory but not a LeRobot policy (config.json and "
+            "model.safetensors, as lerobot-train saves them under checkpoints/*/pretrained_model)"
+        )
+    if inference == "native":
+        raise UnsupportedModelError(f"{path} is a LeRobot policy: torch only (--inference)")
+    chosen = env_id or lerobot_policy_env_id(path)
+    if chosen is None:
+        raise ConfigError(
+            f"--env is needed for the LeRobot policy {path}: its training dataset (from "
+            "train_config.json) is not a panda-rapier demos dataset at hand to read the id from"
+        )
+    config = env_config(chosen, **split_options(dict(overrides))[0])
+    policy = LeRobotPolicy(path, config, trust=trust)
+    return EvaluatedPolicy(policy, chosen, config, policy.observation, str(path))

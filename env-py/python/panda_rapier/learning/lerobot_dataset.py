@@ -53,6 +53,7 @@ import numpy as np
 
 from .. import __version__, _common
 from ..agents.evaluation import evaluate
+from ..agents.lerobot_policy import state_split
 from ..env import PandaEnv
 from ..errors import ConfigError, InvalidArgumentError
 from ..pixels import DEFAULT_IMAGE_SIZE, observation_spec
@@ -121,24 +122,6 @@ def _state_names(schema: _common.Schema) -> list[str]:
         for i in range(int(slot["start"]), int(slot["stop"])):
             names[i] = f"{slot['name']}.{i - int(slot['start'])}"
     return names
-
-
-def state_split(schema: _common.Schema) -> tuple[list[int], list[int]]:
-    """The flat observation's columns that ``environment_state=True`` writes as
-    ``observation.state`` (the goals' and the robot's) and as
-    ``observation.environment_state`` (the task's: its objects' state), each in flat order.
-    A task without entries of its own (Reach) has no environment state: a
-    :class:`~panda_rapier.errors.ConfigError`."""
-    try:
-        task = schema.source_part("task")
-    except InvalidArgumentError:
-        raise ConfigError(
-            "environment_state needs a task with object entries in its observation; this "
-            "task's observation is the goals and the robot only (write observation.state alone)"
-        ) from None
-    environment = list(range(task.start, task.stop))
-    state = [i for i in range(schema.flat_dim) if not task.start <= i < task.stop]
-    return state, environment
 
 
 def _task_summary(task: str) -> str:
