@@ -271,6 +271,22 @@ class LeRobotPolicy:
         ``observation`` the same as the evaluation assembles it (with the camera images), and
         ``episodes`` the episode (seed) each environment runs, ``None`` for an idle one (its
         action is zero). An environment's view is reset when its episode changes."""
+        # One torch thread: the calls are batches of one, and more threads would fight the
+        # environments' for the cores (spinning OpenMP workers made a call of ACT take 1 s).
+        torch = self._torch
+        threads = torch.get_num_threads()
+        torch.set_num_threads(1)
+        try:
+            return self._act(flat, observation, episodes)
+        finally:
+            torch.set_num_threads(threads)
+
+    def _act(
+        self,
+        flat: np.ndarray,
+        observation: Mapping[str, np.ndarray],
+        episodes: Sequence[int | None],
+    ) -> np.ndarray:
         torch = self._torch
         raw: dict[str, Any] = {"agent_pos": flat[:, self._columns[0]]}
         if self._columns[1] is not None:
@@ -280,18 +296,26 @@ class LeRobotPolicy:
         batch = self._preprocess_observation(raw)
         batch["task"] = [self._task] * flat.shape[0]
         batch = self._pre(batch)
-        actions = []
         active = [i for i, e in enumerate(episodes) if e is not None]
+        out = np.zeros((flat.shape[0], self.action_dim), dtype=np.float32)
+        if active:
+            actions = self._act_views(batch, episodes, active, flat.shape[0])
+            done = self._post(torch.cat(actions))
+            out[active] = done.to("cpu").numpy().astype(np.float32)
+        return out
+
+    def _act_views(
+        self, batch: dict[str, Any], episodes: Sequence[int | None], active: list[int], n: int
+    ) -> list[Any]:
+        """Each active environment's action from its view, as a batch of one."""
+        torch = self._torch
+        actions = []
         with torch.inference_mode():
             for i in active:
                 view = self._view(i)
                 if self._episodes[i] != episodes[i]:
                     view.reset()
                     self._episodes[i] = episodes[i]
-                one = {k: _row(v, i, flat.shape[0]) for k, v in batch.items()}
+                one = {k: _row(v, i, n) for k, v in batch.items()}
                 actions.append(view.select_action(one))
-        out = np.zeros((flat.shape[0], self.action_dim), dtype=np.float32)
-        if active:
-            done = self._post(torch.cat(actions))
-            out[active] = done.to("cpu").numpy().astype(np.float32)
-        return out
+        return actions
