@@ -388,15 +388,25 @@ def test_a_state_only_act_trains_and_evaluates_with_environment_state(tmp_path: 
 
     resolved = resolve_policy(policy)
     assert resolved.env_id == ENV_ID  # read from the dataset the policy was trained on
-    dense = resolve_policy(policy, "panda_rapier/PickAndPlaceDense-v0", {"max_episode_steps": 23})
-    on_env_0 = []
-    for num_envs in (1, 3):
-        report = evaluate(dense.policy, dense.config, 7, num_envs=num_envs, first_seed=7576)
-        assert report.inference == "lerobot-torch-f32"
-        on_env_0.append({e.seed: e.episode_return for e in report.episodes if e.env_index == 0})
-    assert len(on_env_0[1]) >= 2  # environment 0 ran a second episode in the 3-environment run
-    assert {seed: on_env_0[0][seed] for seed in on_env_0[1]} == on_env_0[1]
-    assert len(set(on_env_0[0].values())) > 1  # the episodes differ: the test can fail
+    # The same with ACT's temporal ensembling (a new chunk every step, averaged with the earlier
+    # ones' predictions for it): the ensembler, too, is each environment's own.
+    ensembled = tmp_path / "ensembled"
+    shutil.copytree(policy, ensembled)
+    config = json.loads((ensembled / "config.json").read_text())
+    config.update(n_action_steps=1, temporal_ensemble_coeff=0.01)
+    (ensembled / "config.json").write_text(json.dumps(config))
+    for saved in (policy, ensembled):
+        dense = resolve_policy(
+            saved, "panda_rapier/PickAndPlaceDense-v0", {"max_episode_steps": 23}
+        )
+        on_env_0 = []
+        for num_envs in (1, 3):
+            report = evaluate(dense.policy, dense.config, 7, num_envs=num_envs, first_seed=7576)
+            assert report.inference == "lerobot-torch-f32"
+            on_env_0.append({e.seed: e.episode_return for e in report.episodes if e.env_index == 0})
+        assert len(on_env_0[1]) >= 2  # environment 0 ran a second episode with 3 environments
+        assert {seed: on_env_0[0][seed] for seed in on_env_0[1]} == on_env_0[1]
+        assert len(set(on_env_0[0].values())) > 1  # the episodes differ: the test can fail
 
     # Bad input: an environment whose observation does not fit the policy, a directory that is
     # no policy, a processor step named by a Python class path (which loading would import).

@@ -253,9 +253,15 @@ class LeRobotPolicy:
 
     def _view(self, env: int) -> Any:
         """Environment ``env``'s view of the policy: the same modules and weights, its own step
-        state (what ``reset`` sets)."""
+        state (what ``reset`` resets)."""
         while len(self._views) <= env:
-            view = copy.copy(self._policy)
+            # A deep copy that stops at the modules, their parameters and buffers and the
+            # configuration: those are shared, everything else is the view's own (ACT's action
+            # queue, its temporal ensembler, Diffusion Policy's queues of observations).
+            policy = self._policy
+            shared: list[Any] = [policy.config, *policy.parameters(), *policy.buffers()]
+            shared += [m for m in policy.modules() if m is not policy]
+            view = copy.deepcopy(policy, {id(x): x for x in shared})
             view.reset()
             self._views.append(view)
             self._episodes.append(None)
