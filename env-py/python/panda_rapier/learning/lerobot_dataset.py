@@ -264,22 +264,24 @@ def record_lerobot(
     spec = observation_spec(schema, obs_mode, image_size, cameras, None, config_json=config_json)
 
     started = time.perf_counter()
-    report = evaluate(
-        ScriptedPolicy(config),
-        config,
-        episodes,
-        num_envs=num_envs,
-        first_seed=first_seed,
-        num_threads=num_threads,
-        progress=progress,
-        on_step=on_step,
-        obs_mode=obs_mode,
-        image_size=image_size,
-        cameras=cameras,
-    )
-    finished.update(range(episodes))
-    flush()
-    dataset.finalize()
+    # LeRobot's writer maps every saved episode through Hugging Face datasets, each with a
+    # progress bar of its own: off while recording (the caller's bar counts the episodes).
+    from datasets.utils import logging as datasets_logging
+
+    bars_were_on = datasets_logging.is_progress_bar_enabled()
+    datasets_logging.disable_progress_bar()
+    try:
+        report = evaluate(
+            ScriptedPolicy(config), config, episodes, num_envs=num_envs, first_seed=first_seed,
+            num_threads=num_threads, progress=progress, on_step=on_step, obs_mode=obs_mode,
+            image_size=image_size, cameras=cameras,
+        )  # fmt: skip
+        finished.update(range(episodes))
+        flush()
+        dataset.finalize()
+    finally:
+        if bars_were_on:
+            datasets_logging.enable_progress_bar()
     if written != episodes:
         raise RuntimeError(f"wrote {written} of {episodes} episodes")  # a bug, not bad input
 
