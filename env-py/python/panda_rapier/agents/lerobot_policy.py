@@ -32,7 +32,8 @@ from __future__ import annotations
 
 import copy
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -170,6 +171,17 @@ def _inputs(
     return columns, cameras, size
 
 
+@contextmanager
+def _one_torch_thread(torch: Any) -> Iterator[None]:
+    """torch on one thread inside the block, as many as before after it."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(threads)
+
+
 def _row(value: Any, i: int, n: int) -> Any:
     """Row ``i`` of a batch entry, as a batch of one: tensors and per-row lists sliced, any
     other entry (a processor's bookkeeping) as it is."""
@@ -279,36 +291,25 @@ class LeRobotPolicy:
         action is zero). An environment's view is reset when its episode changes."""
         # One torch thread: the calls are batches of one, and more threads would fight the
         # environments' for the cores (spinning OpenMP workers made a call of ACT take 1 s).
-        torch = self._torch
-        threads = torch.get_num_threads()
-        torch.set_num_threads(1)
-        try:
-            return self._act(flat, observation, episodes)
-        finally:
-            torch.set_num_threads(threads)
-
-    def _act(
-        self,
-        flat: np.ndarray,
-        observation: Mapping[str, np.ndarray],
-        episodes: Sequence[int | None],
-    ) -> np.ndarray:
-        torch = self._torch
-        raw: dict[str, Any] = {"agent_pos": flat[:, self._columns[0]]}
-        if self._columns[1] is not None:
-            raw["environment_state"] = flat[:, self._columns[1]]
-        if self.cameras:
-            raw["pixels"] = {key: np.ascontiguousarray(observation[key]) for key in self.cameras}
-        batch = self._preprocess_observation(raw)
-        batch["task"] = [self._task] * flat.shape[0]
-        batch = self._pre(batch)
-        active = [i for i, e in enumerate(episodes) if e is not None]
-        out = np.zeros((flat.shape[0], self.action_dim), dtype=np.float32)
-        if active:
-            actions = self._act_views(batch, episodes, active, flat.shape[0])
-            done = self._post(torch.cat(actions))
-            out[active] = done.to("cpu").numpy().astype(np.float32)
-        return out
+        with _one_torch_thread(self._torch):
+            torch = self._torch
+            raw: dict[str, Any] = {"agent_pos": flat[:, self._columns[0]]}
+            if self._columns[1] is not None:
+                raw["environment_state"] = flat[:, self._columns[1]]
+            if self.cameras:
+                raw["pixels"] = {
+                    key: np.ascontiguousarray(observation[key]) for key in self.cameras
+                }
+            batch = self._preprocess_observation(raw)
+            batch["task"] = [self._task] * flat.shape[0]
+            batch = self._pre(batch)
+            active = [i for i, e in enumerate(episodes) if e is not None]
+            out = np.zeros((flat.shape[0], self.action_dim), dtype=np.float32)
+            if active:
+                actions = self._act_views(batch, episodes, active, flat.shape[0])
+                done = self._post(torch.cat(actions))
+                out[active] = done.to("cpu").numpy().astype(np.float32)
+            return out
 
     def _act_views(
         self, batch: dict[str, Any], episodes: Sequence[int | None], active: list[int], n: int
