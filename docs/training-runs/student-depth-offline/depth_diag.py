@@ -2,15 +2,19 @@
 # held-out error also split into the first 15 steps of each episode and the rest (second
 # session, 2026-11-30). A lab record, not part of the package: run as
 # python depth_diag.py TRAIN_EPISODES HELD_OUT UPDATES [NAME FILTER...]. output.txt: the first session's
-# run (without the split); output-early.txt: the second's.
+# run (without the split); output-early.txt: the second's. With CLOSED=N in the environment, each
+# fitted student then also drives N episodes itself (third session, 2026-11-30: output-closed.txt):
+# its success, how near its hand comes to the cube, and its error against the expert's labels in
+# its own states, by step.
 """Held-out action error of students on fixed expert data: colour against depth standardised
 three ways (one mean and scale; a mean image and one scale; a mean image and a scale image)."""
-import sys, time
+import os, sys, time
 import numpy as np, torch as th
 from stable_baselines3 import PPO
 from panda_rapier.agents import student_model as sm
 from panda_rapier.agents.student_model import PixelEncoder, policy_kwargs, student_architecture, DEPTH_CLIP
 from panda_rapier.learning.student import collect_student, fit_student, StudentData
+from panda_rapier import _common
 from panda_rapier.registration import env_config
 from panda_rapier.sb3 import make_vec_env
 th.set_num_threads(2)
@@ -90,3 +94,25 @@ for name, mode, image, cls in variants:
         curve.append(f"{loss(he):.4f}")
     print(f"{name}: held-out MSE by quarter {curve}; train {loss(tr):.4f}; {time.time()-t:.0f} s", flush=True)
     print(f"{name}: held-out MSE, steps 0-{EARLY - 1} of each episode {loss(he, early):.4f}, the later steps {loss(he, ~early):.4f}", flush=True)
+    closed = int(os.environ.get("CLOSED", "0"))
+    if closed:
+        own, stats = collect_student(config, {"obs_mode": mode, "image_size": 84}, closed, first_seed=20_000, actor=model, num_envs=16)
+        schema = _common.Schema.of(_common.config_json(config))
+        b = {k: th.as_tensor(v) for k, v in subset(own, keys).observations.items()}
+        with th.no_grad():
+            acted = np.concatenate([model.policy.get_distribution({k: v[i:i+512] for k, v in b.items()}).distribution.mean.numpy() for i in range(0, len(own), 512)])
+        err = np.mean((acted - own.actions) ** 2, axis=1)
+        step = np.zeros(len(own), dtype=np.int64); seen2: dict[int, int] = {}
+        for i, e in enumerate(own.episode_index):
+            step[i] = seen2.get(int(e), 0); seen2[int(e)] = step[i] + 1
+        buckets = [(0, 5), (5, 10), (10, 15), (15, 25), (25, 40), (40, 70)]
+        by = ", ".join(f"{a}-{z - 1}: {err[(step >= a) & (step < z)].mean():.4f}" for a, z in buckets if ((step >= a) & (step < z)).any())
+        print(f"{name}: drove {closed} episodes: success {stats.success_rate:.3f}, placed {stats.placed_rate:.3f}; its error against the expert in its own states by step {by}", flush=True)
+        # The expert's action's first three entries move the hand; how far the student's hand
+        # command points away from the expert's, per episode, at the first step it errs by > 0.05.
+        first_bad = []
+        for e in np.unique(own.episode_index):
+            idx = np.flatnonzero(own.episode_index == e)
+            bad = idx[err[idx] > 0.05]
+            first_bad.append(int(step[bad[0]]) if len(bad) else -1)
+        print(f"{name}: first step with an error over 0.05, per episode: {first_bad}", flush=True)
