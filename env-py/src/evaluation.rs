@@ -258,6 +258,11 @@ pub(crate) fn summarize<'py>(
     dict.set_item("episodes", s.episodes)?;
     dict.set_item("success_rate", s.success_rate)?;
     dict.set_item("success_ci95", [s.success_ci95.0, s.success_ci95.1])?;
+    dict.set_item("success_once_rate", s.success_once_rate)?;
+    dict.set_item(
+        "success_once_ci95",
+        [s.success_once_ci95.0, s.success_once_ci95.1],
+    )?;
     dict.set_item("placed_rate", s.placed_rate)?;
     dict.set_item("mean_return", s.mean_return)?;
     dict.set_item("std_return", s.std_return)?;

@@ -121,6 +121,11 @@ pub struct EvaluationSummary {
     pub success_rate: f64,
     /// Its 95 % Wilson score interval.
     pub success_ci95: (f64, f64),
+    /// Fraction in which `is_success` held at some step, the last or an earlier one
+    /// (ManiSkill's `success_once`; LeRobot's `lerobot-eval` counts this).
+    pub success_once_rate: f64,
+    /// Its 95 % Wilson score interval.
+    pub success_once_ci95: (f64, f64),
     /// Fraction in which `is_placed` held at some step (0 for tasks without it).
     pub placed_rate: f64,
     /// Mean return (0 without episodes).
@@ -186,10 +191,16 @@ pub fn summarize(episodes: &[EpisodeRecord]) -> EvaluationSummary {
         .filter_map(|e| e.steps_to_placed.map(f64::from))
         .collect();
     let successes = episodes.iter().filter(|e| e.success).count();
+    let once = episodes
+        .iter()
+        .filter(|e| e.success || e.steps_to_success.is_some())
+        .count();
     EvaluationSummary {
         episodes: n,
         success_rate: rate(&|e| e.success),
         success_ci95: wilson_interval(successes, n, 1.959964),
+        success_once_rate: once as f64 / n.max(1) as f64,
+        success_once_ci95: wilson_interval(once, n, 1.959964),
         placed_rate: rate(&EpisodeRecord::placed),
         mean_return,
         std_return: variance.unwrap_or(0.0).sqrt(),
@@ -531,6 +542,16 @@ mod tests {
         let s = summarize(&episodes);
         assert_eq!(s.episodes, 4);
         assert_eq!(s.success_rate, 0.75);
+        assert_eq!(s.success_once_rate, 0.75);
+        // Successful at step 3, not at the last step: counted once, not at the end.
+        let lost = EpisodeRecord {
+            success: false,
+            ..record(0.0, Some(3), None)
+        };
+        let s2 = summarize(&[lost, record(0.0, None, None)]);
+        assert_eq!((s2.success_rate, s2.success_once_rate), (0.0, 0.5));
+        assert_eq!(s2.success_once_ci95, wilson_interval(1, 2, 1.959964));
+        assert_eq!(s2.success_ci95, wilson_interval(0, 2, 1.959964));
         assert_eq!(s.placed_rate, 0.25);
         assert_eq!(s.mean_return, 4.0);
         assert_eq!(s.std_return, 5.0f64.sqrt());
@@ -541,6 +562,7 @@ mod tests {
         let empty = summarize(&[]);
         assert_eq!((empty.success_rate, empty.mean_return), (0.0, 0.0));
         assert_eq!(empty.success_ci95, (0.0, 1.0));
+        assert_eq!(empty.success_once_rate, 0.0);
         assert_eq!(empty.mean_steps_to_success, None);
     }
 

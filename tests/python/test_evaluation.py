@@ -146,7 +146,8 @@ def test_statistics_are_the_rust_evaluators_and_match_numpy() -> None:
             env_index=k % 4,
             episode_return=float(rng.normal(10, 3)),
             length=int(rng.integers(20, 70)),
-            success=bool(k % 3),
+            # Successful at some step where k % 3; not at the last step where also k % 4 == 1.
+            success=bool(k % 3) and k % 4 != 1,
             placed=bool(k % 5),
             steps_to_success=int(rng.integers(5, 20)) if k % 3 else None,
             steps_to_placed=int(rng.integers(10, 30)) if k % 5 else None,
@@ -159,6 +160,11 @@ def test_statistics_are_the_rust_evaluators_and_match_numpy() -> None:
     returns = np.array([e.episode_return for e in episodes])
     to_success = [e.steps_to_success for e in episodes if e.steps_to_success is not None]
     assert stats["success_rate"] == pytest.approx(np.mean([e.success for e in episodes]))
+    # Success at some step: steps_to_success recorded (here also where the last step failed).
+    once = [e.success or e.steps_to_success is not None for e in episodes]
+    assert np.mean(once) > np.mean([e.success for e in episodes])
+    assert stats["success_once_rate"] == pytest.approx(np.mean(once))
+    assert report.summary()["success_once_ci95"] == list(wilson_interval(sum(once), len(once)))
     assert stats["placed_rate"] == pytest.approx(np.mean([e.placed for e in episodes]))
     assert stats["mean_return"] == pytest.approx(returns.mean(), rel=1e-12)
     assert stats["std_return"] == pytest.approx(returns.std(), rel=1e-12)

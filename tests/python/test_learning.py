@@ -577,6 +577,51 @@ def test_curves_and_models_table(tmp_path: Path, capsys: pytest.CaptureFixture[s
     kept, said = table_again(elsewhere)
     assert kept["environment"]["libc"] == "musl-1.2" and said == ""
 
+    # --only: the rows named are evaluated, the others keep their records as they are.
+    evaluations.write_text(first)
+    marked = json.loads(first)
+    marked["tiny.zip"]["mean_return"] = 12345.0
+    evaluations.write_text(json.dumps(marked))
+    assert main(["models-table", str(models), "--episodes", "3", "--quiet",
+                 "--only", "random *"]) == 0  # fmt: skip
+    assert json.loads(evaluations.read_text())["tiny.zip"]["mean_return"] == 12345.0
+    # A LeRobot policy directory is a row of its group, with its run record's commands; kept
+    # here from its record (this environment may have no lerobot to evaluate it).
+    from panda_rapier.agents.model_file import RUN_MEMBER, model_digest
+
+    act = models / "act-PickAndPlace"
+    act.mkdir()
+    (act / "config.json").write_text('{"type": "act"}')
+    (act / "model.safetensors").write_bytes(b"weights")
+    (act / RUN_MEMBER).write_text(json.dumps({
+        "env_id": "panda_rapier/PickAndPlace-v0", "env_kwargs": {}, "algo": "act",
+        "backend": "lerobot", "env_steps": 70_000, "wall_time_s": 600.0,
+        "commands": [["panda-rapier", "demos", "--format", "lerobot"], ["lerobot-train"]],
+        "saved_as": "out/checkpoints/last/pretrained_model",
+    }))  # fmt: skip
+    with_act = json.loads(evaluations.read_text())
+    with_act["act-PickAndPlace"] = {**with_act["tiny.zip"], "model_sha256": model_digest(act)}
+    evaluations.write_text(json.dumps(with_act))
+    assert main(["models-table", str(models), "--episodes", "3", "--quiet",
+                 "--only", "scripted *"]) == 0  # fmt: skip
+    table = (models / "README.md").read_text()
+    row = "| `act-PickAndPlace` | act (LeRobot) on `PickAndPlace-v0` | `{}` | 70,000 | 10.0 |"
+    assert row in table
+    assert (
+        "- `act-PickAndPlace`: `panda-rapier demos --format lerobot`; then `lerobot-train`; "
+        "then copy `out/checkpoints/last/pretrained_model` here" in table
+    )
+    # A row left out needs a record of the same model and episodes.
+    (act / "model.safetensors").write_bytes(b"other weights")
+    assert main(["models-table", str(models), "--episodes", "3", "--quiet",
+                 "--only", "scripted *"]) == 2  # fmt: skip
+    assert "act-PickAndPlace changed since evaluations.json recorded it" in capsys.readouterr().err
+    del with_act["act-PickAndPlace"]
+    evaluations.write_text(json.dumps(with_act))
+    assert main(["models-table", str(models), "--episodes", "3", "--quiet",
+                 "--only", "scripted *"]) == 2  # fmt: skip
+    assert "act-PickAndPlace has no record in evaluations.json" in capsys.readouterr().err
+
 
 def test_run_labels_tell_seeds_and_recipe_files_apart() -> None:
     """Curves of several runs of one id need legends that differ: a seed other than 0, a

@@ -408,7 +408,8 @@ def _parser() -> argparse.ArgumentParser:
         "models-table",
         help="evaluate every model in a folder and write its README table (and "
         "evaluations.json, every episode's outcome)",
-        description="Evaluates each MODEL.zip in FOLDER with `panda-rapier eval`'s defaults "
+        description="Evaluates each model in FOLDER (MODEL.zip files and LeRobot policy "
+        "directories) with `panda-rapier eval`'s defaults "
         "(1000 episodes, seeds 0..999, the environment recorded in the model) and writes a "
         "markdown table of algorithm, env id and options, env steps, wall time, success rate "
         "with its 95 %% interval, placed rate and the command that reproduces each. A row "
@@ -419,6 +420,15 @@ def _parser() -> argparse.ArgumentParser:
     table.add_argument("folder", type=Path)
     table.add_argument("--out", type=Path, default=None, help="default: FOLDER/README.md")
     table.add_argument("--episodes", type=_positive, default=1000)
+    table.add_argument(
+        "--only",
+        action="append",
+        default=None,
+        metavar="PATTERN",
+        help="evaluate only the rows whose key (a model's file or directory name, or 'random "
+        "ID' / 'scripted ID') matches this shell pattern (repeatable); the others keep their "
+        "record in evaluations.json, which must be of the same model file and episodes",
+    )
     table.add_argument("--quiet", action="store_true", help="no progress bar")
     table.set_defaults(run=_run_models_table)
 
@@ -705,7 +715,7 @@ def _run_models_table(args: argparse.Namespace) -> int:
             raise InvalidArgumentError(f"{evaluations} is not a JSON object of records")
     text, records = models_table(
         args.folder, episodes=args.episodes, progress=not args.quiet, previous=previous,
-        say=lambda line: print(line, file=sys.stderr),
+        say=lambda line: print(line, file=sys.stderr), only=args.only,
     )  # fmt: skip
     out.write_text(text)
     evaluations.write_text(json.dumps(records, indent=1, sort_keys=True) + "\n")
@@ -851,6 +861,11 @@ def _run_eval(args: argparse.Namespace) -> int:
             if task_places(report.config["task"]["name"])
             else ""
         )
+    )
+    once_low, once_high = summary["success_once_ci95"]
+    print(
+        f"  success at any step {summary['success_once_rate']:.3f} "
+        f"(95 % CI {once_low:.3f}-{once_high:.3f}; lerobot-eval counts this)"
     )
     print(f"  mean return         {summary['mean_return']:.3f} +- {summary['std_return']:.3f}")
     print(f"  inference           {report.inference}")

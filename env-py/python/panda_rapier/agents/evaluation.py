@@ -117,7 +117,9 @@ class EvaluationReport:
     def statistics(self) -> dict[str, Any]:
         """The episodes' statistics, computed where the Rust evaluator computes them
         (``panda_rapier_policies::evaluation::summarize``): ``success_rate``,
-        ``success_ci95``, ``placed_rate``, ``mean_return``, ``std_return``, ``mean_length``,
+        ``success_ci95``, ``success_once_rate`` and ``success_once_ci95`` (``is_success`` at
+        some step, not only the last: how ManiSkill's ``success_once`` and ``lerobot-eval``
+        count), ``placed_rate``, ``mean_return``, ``std_return``, ``mean_length``,
         ``mean_steps_to_success``, ``median_steps_to_success``, ``mean_steps_to_placed`` and
         ``physics_unstable_episodes``."""
         return dict(_native.summarize([asdict(e) for e in self.episodes]))
@@ -131,6 +133,12 @@ class EvaluationReport:
         """95 % Wilson score interval of the success rate."""
         low, high = self.statistics()["success_ci95"]
         return (float(low), float(high))
+
+    @property
+    def success_once_rate(self) -> float:
+        """Fraction of episodes in which ``is_success`` held at some step (``lerobot-eval``'s
+        and ManiSkill's ``success_once`` count; :attr:`success_rate` is at the last step)."""
+        return float(self.statistics()["success_once_rate"])
 
     @property
     def placed_rate(self) -> float:
@@ -178,6 +186,8 @@ class EvaluationReport:
             "max_episode_steps": self.config.get("max_episode_steps"),
             "success_rate": stats["success_rate"],
             "success_ci95": list(stats["success_ci95"]),
+            "success_once_rate": stats["success_once_rate"],
+            "success_once_ci95": list(stats["success_once_ci95"]),
             "placed_rate": stats["placed_rate"],
             "mean_return": stats["mean_return"],
             "std_return": stats["std_return"],

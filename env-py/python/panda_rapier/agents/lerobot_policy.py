@@ -43,7 +43,7 @@ from .. import _common
 from ..errors import ConfigError, InvalidArgumentError
 from ..pixels import DEFAULT_CAMERA
 from ..registration import TASKS
-from .model_file import UnsupportedModelError, UntrustedModelError
+from .model_file import UnsupportedModelError, UntrustedModelError, read_run_info
 
 __all__ = [
     "LEROBOT_POLICY_FILES",
@@ -94,12 +94,16 @@ def _read_json(path: Path, what: str) -> Any:
 
 
 def lerobot_policy_env_id(path: str | Path) -> str | None:
-    """The id of the environment the policy's training dataset was recorded on, where
-    ``lerobot-train`` saved its configuration beside the policy (``train_config.json``) and
-    the dataset written by ``panda-rapier demos --format lerobot`` is still at its root;
-    ``None`` otherwise."""
+    """The id of the environment the policy was trained for: the ``env_id`` of the run record
+    in its directory (``panda_rapier_run.json``, as the policies shipped in ``models/`` carry),
+    else the id its training dataset was recorded on, where ``lerobot-train`` saved its
+    configuration beside the policy (``train_config.json``) and the dataset written by
+    ``panda-rapier demos --format lerobot`` is still at its root; ``None`` otherwise."""
     from ..registration import ENV_IDS
 
+    recorded = (read_run_info(path) or {}).get("env_id")
+    if recorded in ENV_IDS:
+        return str(recorded)
     train = Path(path) / "train_config.json"
     if not train.is_file():
         return None

@@ -12,6 +12,7 @@ it.
 
 from __future__ import annotations
 
+import hashlib
 import io
 import json
 import math
@@ -31,6 +32,7 @@ from ..errors import ConfigError, InvalidArgumentError
 __all__ = [
     "RUN_MEMBER",
     "UnsupportedModelError",
+    "model_digest",
     "read_model_file",
     "read_run_info",
     "read_torch_entries",
@@ -47,8 +49,14 @@ class UnsupportedModelError(InvalidArgumentError):
 
 def read_run_info(model_path: str | Path) -> dict[str, Any] | None:
     """The run record of a model saved by ``panda-rapier train``: the ``panda_rapier_run.json``
-    inside the zip, else a ``run.json`` beside it; ``None`` if there is neither."""
+    inside the zip, else a ``run.json`` beside it; of a model directory (a LeRobot policy), the
+    ``panda_rapier_run.json`` in it; ``None`` if there is none."""
     path = Path(model_path)
+    if path.is_dir():
+        try:
+            return dict(json.loads((path / RUN_MEMBER).read_text()))
+        except (OSError, ValueError, TypeError):
+            return None
     try:
         with zipfile.ZipFile(path) as archive:
             return dict(json.loads(archive.read(RUN_MEMBER)))
@@ -58,6 +66,20 @@ def read_run_info(model_path: str | Path) -> dict[str, Any] | None:
         return dict(json.loads((path.parent / "run.json").read_text()))
     except (OSError, ValueError):
         return None
+
+
+def model_digest(path: str | Path) -> str:
+    """The SHA-256 that identifies a model: of the file's bytes, or for a model directory (a
+    LeRobot policy) of the sorted list of its files' relative paths and SHA-256s."""
+    path = Path(path)
+    if not path.is_dir():
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+    lines = [
+        f"{file.relative_to(path).as_posix()} {hashlib.sha256(file.read_bytes()).hexdigest()}\n"
+        for file in sorted(path.rglob("*"))
+        if file.is_file()
+    ]
+    return hashlib.sha256("".join(lines).encode()).hexdigest()
 
 
 def read_model_file(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:

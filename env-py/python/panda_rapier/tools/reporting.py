@@ -10,7 +10,7 @@ is typed by hand.
 
 from __future__ import annotations
 
-import hashlib
+import fnmatch
 import json
 import shlex
 from collections.abc import Callable, Mapping, Sequence
@@ -22,7 +22,8 @@ from tqdm import tqdm
 from .._deprecated import same_class
 from ..agents.evaluation import EvaluationReport, check_reproduction, evaluate
 from ..agents.inference import resolve_policy
-from ..agents.model_file import read_run_info
+from ..agents.lerobot_policy import is_lerobot_policy
+from ..agents.model_file import model_digest, read_run_info
 from ..errors import ConfigError, InvalidArgumentError
 from ..learning.recipes import load_recipe, recipe_validation, recipes_train_alike
 from ..pixels import RANDOMIZATION_GROUPS, randomization_of
@@ -80,9 +81,11 @@ def run_label(run: dict[str, Any]) -> str:
 
 
 def _trainer(run: Mapping[str, Any]) -> str:
-    """The algorithm, and RLlib where RLlib trained it (``--backend rllib``)."""
+    """The algorithm, and RLlib where RLlib trained it (``--backend rllib``), LeRobot where
+    ``lerobot-train`` did."""
     algo = str(run.get("algo", "?"))
-    return f"{algo} (RLlib)" if run.get("backend") == "rllib" else algo
+    backend = {"rllib": "RLlib", "lerobot": "LeRobot"}.get(str(run.get("backend")))
+    return f"{algo} ({backend})" if backend else algo
 
 
 def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) -> None:
@@ -190,37 +193,56 @@ def _group_of(env_id: str) -> tuple[str, str]:
     return fixed["task"], mode
 
 
+def shipped_models(folder: Path) -> list[Path]:
+    """The models of a models folder: every ``*.zip`` (``panda-rapier train``'s) and every
+    directory holding a LeRobot policy, sorted by name."""
+    folder = Path(folder)
+    return sorted(
+        [*folder.glob("*.zip"), *(p for p in folder.iterdir() if is_lerobot_policy(p))],
+        key=lambda path: path.name,
+    )
+
+
 def models_table(
     folder: Path,
     episodes: int = 1000,
     progress: bool = True,
     previous: Mapping[str, Any] | None = None,
     say: Callable[[str], None] | None = None,
+    only: Sequence[str] | None = None,
 ) -> tuple[str, dict[str, Any]]:
     """The benchmark table of ``folder``'s README and the evaluations behind it.
 
     Grouped by task and action mode. Each group has a uniformly random policy, the scripted
-    expert (both on the group's sparse id, default options) and every ``*.zip`` in
-    ``folder`` trained on one of the group's ids. Every row is evaluated as
+    expert (both on the group's sparse id, default options) and every model in ``folder``
+    (:func:`shipped_models`: ``*.zip`` files and LeRobot policy directories, each with its
+    run record) trained on one of the group's ids. Every row is evaluated as
     ``panda-rapier eval --policy SPEC`` runs it: seeds ``0 .. episodes - 1``, which no
     training run uses.
 
     Returns the markdown and the evaluations: per row, the summary and each episode's success
-    and placed flags as strings of 0 and 1 (and a model's ``model_sha256``). A model's key is
-    its file name; a baseline's is ``"random panda_rapier/Reach-v0"``.
+    and placed flags as strings of 0 and 1 (and a model's ``model_sha256``,
+    :func:`~panda_rapier.agents.model_file.model_digest`). A model's key is its file or
+    directory name; a baseline's is ``"random panda_rapier/Reach-v0"``.
 
     ``previous`` (the evaluations an earlier call returned) keeps a row's earlier record
     where this evaluation reproduces it (:func:`kept_record`): where the model and the
     episodes are the same, a row's figures change only with its outcome, not with the
-    machine that ran the table. ``say`` is told of every row whose record changed."""
-    models = sorted(Path(folder).glob("*.zip"))
+    machine that ran the table. ``say`` is told of every row whose record changed.
+
+    ``only`` (shell patterns of row keys): evaluate just the rows that match one; every other
+    row shows its record in ``previous`` unchanged, which must exist and be of the same model
+    file and number of episodes."""
+    models = shipped_models(Path(folder))
     if not models:
-        raise InvalidArgumentError(f"no .zip models in {folder}")
+        raise InvalidArgumentError(f"no models (*.zip or LeRobot policy directories) in {folder}")
     runs: dict[Path, dict[str, Any]] = {}
     for model in models:
         run = read_run_info(model)
         if run is None:
-            raise InvalidArgumentError(f"{model} has no run record: was it made by train?")
+            raise InvalidArgumentError(
+                f"{model} has no run record (panda_rapier_run.json): was it made by train?"
+            )
         runs[model] = run
     groups = [
         (task, mode)
@@ -235,11 +257,15 @@ def models_table(
     with tqdm(total=total, desc="rows", unit="row", disable=not progress) as rows_bar:
 
         def evaluated(key: str, spec: str, env_id: str | None) -> dict[str, Any]:
+            earlier = (previous or {}).get(key)
+            if only is not None and not any(fnmatch.fnmatchcase(key, p) for p in only):
+                records[key] = _unevaluated(key, earlier, spec, env_id, episodes)
+                rows_bar.update(1)
+                return records[key]
             report = _evaluate_row(spec, env_id, episodes, progress, key)
             record = _record(report.summary(), report.episodes)
             if env_id is None:
-                record["model_sha256"] = hashlib.sha256(Path(spec).read_bytes()).hexdigest()
-            earlier = (previous or {}).get(key)
+                record["model_sha256"] = model_digest(spec)
             records[key], why = kept_record(earlier, record, report)
             if say is not None and records[key] is record and earlier is not None:
                 say(f"{key}: new record ({why})")
@@ -292,6 +318,27 @@ def models_table(
 
 #: Record fields that say what was evaluated: a record is kept only where they are unchanged.
 _SAME_EVALUATION = ("model_sha256", "episodes", "first_seed", "max_episode_steps")
+
+
+def _unevaluated(
+    key: str, earlier: Mapping[str, Any] | None, spec: str, env_id: str | None, episodes: int
+) -> dict[str, Any]:
+    """The earlier record of a row that ``models_table(only=...)`` leaves out, checked to be
+    of the same model and episodes."""
+    if not isinstance(earlier, Mapping):
+        raise InvalidArgumentError(
+            f"{key} has no record in evaluations.json to keep: name it in --only to evaluate it"
+        )
+    if env_id is None and earlier.get("model_sha256") != model_digest(spec):
+        raise InvalidArgumentError(
+            f"{key} changed since evaluations.json recorded it: name it in --only to evaluate it"
+        )
+    if earlier.get("episodes") != episodes:
+        raise InvalidArgumentError(
+            f"{key} was recorded on {earlier.get('episodes')} episodes, not {episodes}: name it "
+            "in --only to evaluate it"
+        )
+    return dict(earlier)
 
 
 def kept_record(
@@ -352,14 +399,19 @@ def _header(folder: Path, episodes: int) -> str:
         f"Generated by `panda-rapier models-table {where}`. One table per task and action "
         "mode: a uniformly random policy, the scripted expert and every model shipped here, "
         f"each evaluated as `panda-rapier eval --policy random|scripted|{where}/NAME.zip` "
-        "(a model needs no other flag: its environment id and options are stored in the zip) "
+        "(a model needs no other flag: its environment id and options are stored in the zip; "
+        "a LeRobot policy is a directory, `--policy "
+        f"{where}/NAME`, and needs the `[lerobot]` extra) "
         f"on the same {episodes} episodes, seeds 0..{episodes - 1}, which no training run "
         "uses. Wall time is training on a 2-core development VM, evaluations excluded; its "
         "CPU changed between sessions (Intel Xeon, AMD EPYCs) and the same work took up to "
         "1.5x longer on one than on another (`docs/training.md`). Env steps include the "
         "expert's demonstrations and every rollout the learner drove. Success as the task "
         "defines it (95 % Wilson interval); placed: also released and at rest (tasks that "
-        "place). Models act through the native float64 network (the same bits on every CPU): "
+        "place); success counts at the last step for every row, as in Gymnasium-Robotics "
+        "(`lerobot-eval` counts it at any step: `success_once_rate` in `evaluations.json`). "
+        "Models act through the native float64 network (the same bits on every CPU; LeRobot "
+        "policies and students that see act through torch, float32): "
         "an evaluation repeats these episodes exactly wherever the package version, CPU "
         "architecture and C library recorded in `evaluations.json` match, and these rates "
         "within their interval elsewhere "
@@ -373,6 +425,8 @@ RECIPES = "recipes"
 
 
 def _reproduce(model: Path, run: dict[str, Any], source: dict[str, Any]) -> str:
+    if run.get("backend") == "lerobot":
+        return _reproduce_lerobot(model, run)
     recipes = model.parent / RECIPES
     command, caveat = _reproducing_command(run, recipes)
     steps = [f"`{shlex.join(command)}`, then copy `{_out_of(command)}/"
@@ -389,6 +443,21 @@ def _reproduce(model: Path, run: dict[str, Any], source: dict[str, Any]) -> str:
     return (
         f"- `{model.name}`: " + "; then ".join(steps) + (f" ({'; '.join(notes)})" if notes else "")
     )
+
+
+def _reproduce_lerobot(model: Path, run: dict[str, Any]) -> str:
+    """The reproducing commands of a LeRobot policy: its run record's ``commands`` (recording
+    the dataset, ``lerobot-train``), then the copy of the checkpoint it ``saved_as``."""
+    commands = run.get("commands")
+    if not isinstance(commands, list) or not all(isinstance(c, list) for c in commands):
+        raise InvalidArgumentError(f"{model}: its run record has no list of commands")
+    steps = [f"`{shlex.join(str(part) for part in command)}`" for command in commands]
+    steps.append(
+        f"copy `{run.get('saved_as', 'OUT/checkpoints/last/pretrained_model')}` here as "
+        f"`{model.name}` with its `panda_rapier_run.json`"
+    )
+    note = run.get("note", "")
+    return f"- `{model.name}`: " + "; then ".join(steps) + (f" ({note})" if note else "")
 
 
 def _reproducing_command(run: dict[str, Any], recipes: Path) -> tuple[list[str], str]:
