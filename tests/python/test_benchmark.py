@@ -71,6 +71,32 @@ def test_shipped_model_reproduces_its_recorded_evaluation(name: str) -> None:
     _assert_row_shows(f"`{name}`", recorded, (MODELS / "README.md").read_text())
 
 
+def test_shipped_lerobot_policies_are_recorded_and_shown() -> None:
+    """Each LeRobot policy directory in models/ is the one evaluations.json recorded (its
+    digest), acts on an id that its run record names, and its row in models/README.md and
+    its sentence in the README show the record.
+    (Evaluating them needs lerobot: tests/python/test_lerobot_dataset.py, run by
+    scripts/lerobot-tests, repeats their episodes.)"""
+    from panda_rapier.agents.lerobot_policy import is_lerobot_policy, lerobot_policy_env_id
+    from panda_rapier.agents.model_file import model_digest
+    from panda_rapier.tools.reporting import shipped_models
+
+    recorded_all = json.loads((MODELS / "evaluations.json").read_text())
+    policies = [p for p in shipped_models(MODELS) if p.is_dir()]
+    assert policies, "no LeRobot policy in models/"
+    for path in policies:
+        assert is_lerobot_policy(path)
+        recorded = recorded_all[path.name]
+        assert recorded["model_sha256"] == model_digest(path), f"{path.name} changed"
+        assert recorded["inference"] == "lerobot-torch-f32"
+        run = read_run_info(path)
+        assert run is not None and run["backend"] == "lerobot"
+        assert lerobot_policy_env_id(path) == run["env_id"]
+        _assert_row_shows(f"`{path.name}`", recorded, (MODELS / "README.md").read_text())
+        readme = " ".join((MODELS.parent / "README.md").read_text().split())
+        assert f"`models/{path.name}`, {recorded['success_rate']:.3f} success" in readme
+
+
 def _assert_row_shows(label: str, recorded: dict[str, Any], table: str) -> None:
     """``table``'s row of ``label`` shows the recorded evaluation."""
     low, high = recorded["success_ci95"]

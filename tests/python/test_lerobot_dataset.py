@@ -425,3 +425,75 @@ def test_a_state_only_act_trains_and_evaluates_with_environment_state(tmp_path: 
 
     with pytest.raises(UntrustedModelError, match="--trust-model-file"):
         resolve_policy(hostile)
+
+
+MODELS = Path(__file__).resolve().parents[2] / "models"
+#: The LeRobot policies shipped in models/ (directories; their records in evaluations.json).
+SHIPPED = sorted(p.name for p in MODELS.iterdir() if (p / "panda_rapier_run.json").is_file())
+
+
+@needs_lerobot
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_lerobot_policy_reproduces_its_recorded_evaluation(name: str) -> None:
+    """Each LeRobot policy in models/ evaluated as `panda-rapier eval --policy models/NAME`
+    does (the environment from its run record, 32 environments, seeds from 0): where the
+    recorded outcome fields match this machine's (package, CPU architecture, C library, torch
+    and its kernels, LeRobot) the first 100 episodes repeat exactly; elsewhere, over the first
+    300, the rates do not fall significantly below the recorded ones (check_reproduction)."""
+    import os
+
+    from panda_rapier.agents.evaluation import (
+        OUTCOME_FIELDS,
+        check_reproduction,
+        evaluate,
+        evaluation_environment,
+    )
+    from panda_rapier.agents.inference import resolve_policy
+    from panda_rapier.agents.model_file import model_digest
+
+    recorded = json.loads((MODELS / "evaluations.json").read_text())[name]
+    assert recorded["model_sha256"] == model_digest(MODELS / name), f"{name} changed"
+    # Loading the policy imports torch and lerobot, whose versions are outcome fields.
+    resolved = resolve_policy(MODELS / name)
+    here = evaluation_environment(recorded["inference"])
+    fields = OUTCOME_FIELDS[recorded["inference"]]
+    exact = all(recorded["environment"].get(k) == here.get(k) for k in fields)
+    episodes = 100 if exact else int(os.environ.get("PANDA_RAPIER_REPRODUCTION_EPISODES", "300"))
+    report = evaluate(resolved.policy, resolved.config, episodes, num_envs=32,
+                      first_seed=0, **resolved.observation)  # fmt: skip
+    assert report.inference == recorded["inference"] == "lerobot-torch-f32"
+    check = check_reproduction(recorded, report)
+    print(name, exact, check)
+    assert check.passed, check
+
+
+@needs_lerobot
+def test_the_guides_commands_run_a_shipped_policy(tmp_path: Path) -> None:
+    """The Demonstrations guide's commands on a shipped LeRobot policy run as written (on 10
+    episodes, not 100): `panda-rapier eval` and `lerobot-eval` load the directory, its run
+    record beside LeRobot's files."""
+    import shlex
+
+    page = (MODELS.parent / "docs" / "guide" / "demonstrations.md").read_text()
+    block = next(b for b in re.findall(r"```sh\n(.*?)```", page, flags=re.DOTALL)
+                 if "--policy models/lerobot-act" in b)  # fmt: skip
+    commands = [shlex.split(c) for c in block.replace("\\\n", " ").splitlines()]
+    bin_dir = Path(sys.executable).parent
+    ran = 0
+    for command in commands:
+        if command[0] not in ("panda-rapier", "lerobot-eval"):
+            continue
+        command = [c.replace("=100", "=10") for c in command]
+        if "--episodes" in command:
+            command[command.index("--episodes") + 1] = "10"
+        if command[0] == "lerobot-eval":
+            command.append(f"--output_dir={tmp_path / 'eval'}")
+        run = subprocess.run([str(bin_dir / command[0]), *command[1:]], cwd=MODELS.parent,
+                             capture_output=True, text=True, timeout=600, check=False)  # fmt: skip
+        assert run.returncode == 0, (command, run.stderr[-3000:])
+        ran += 1
+        if command[0] == "panda-rapier":
+            assert "success at any step" in run.stdout, run.stdout
+        else:
+            assert "pc_success" in run.stdout + run.stderr
+    assert ran == 2, commands
