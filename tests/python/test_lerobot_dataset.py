@@ -365,6 +365,17 @@ def test_a_state_only_act_trains_and_evaluates_with_environment_state(tmp_path: 
 
     bin_dir = Path(sys.executable).parent
     policy = _train_tiny_act(root, tmp_path / "train")
+    # The guide's resume: from the last checkpoint's saved configuration, two more updates.
+    resumed = subprocess.run(
+        [str(bin_dir / "lerobot-train"), f"--config_path={policy / 'train_config.json'}",
+         "--resume=true", "--steps=4"],
+        capture_output=True, text=True, timeout=600, check=False,
+    )  # fmt: skip
+    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    assert "Resuming" in resumed.stdout + resumed.stderr
+    checkpoints = tmp_path / "train" / "checkpoints"
+    assert (checkpoints / "last").resolve() == (checkpoints / "000004").resolve()
+    policy = checkpoints / "last" / "pretrained_model"
     evaluation = subprocess.run(
         [str(bin_dir / "lerobot-eval"), f"--policy.path={policy}", "--env.type=panda_rapier",
          "--env.task=PickAndPlace-v0", "--env.environment_state=true", "--eval.n_episodes=2",
