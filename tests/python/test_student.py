@@ -129,6 +129,12 @@ def test_the_encoder_sees_images_and_scales_the_rest() -> None:
         {"channels": [8], "strides": [True]},
         {"net_arch": {"pi": [64]}},
         {"depth": 3},
+        {"depth_range": 0},
+        {"depth_range": -0.05},
+        {"depth_range": True},
+        {"depth_range": "5 cm"},
+        {"depth_range": float("nan")},
+        {"depth_range": 3.0},
     ],
 )
 def test_bad_student_architectures_are_config_errors(spec: Any) -> None:
@@ -182,6 +188,32 @@ def test_the_encoder_sees_depth_clamped_and_standardised() -> None:
     # A colour student's weights have no depth entries: shipped students load as before.
     colour = _student(arch).policy.state_dict()
     assert not any("depth" in key for key in colour)
+
+
+def test_depth_range_clips_what_differs_from_the_usual_scene(tmp_path: Path) -> None:
+    """With ``depth_range`` the depth image's difference from the mean image is clipped to
+    the range and divided by it (a 5 cm object and a 50 cm arm both reach the limit); the
+    setting is part of the architecture, recorded with the model and rebuilt from it."""
+    arch = student_architecture({**TINY["student"], "depth_range": 0.05})
+    assert arch["depth_range"] == 0.05
+    assert "depth_range" not in student_architecture(TINY["student"])  # records as before
+    model = _student(arch, DEPTH)
+    encoder = model.policy.features_extractor
+    assert isinstance(encoder, PixelEncoder) and encoder.depth_range == 0.05
+    encoder.fit_depth([np.full((2, 48, 48, 1), 1.5, dtype=np.float32)])
+    scene = th.full((1, 48, 48, 1), 1.5)
+    scene[0, 0, 0, 0], scene[0, 1, 1, 0], scene[0, 2, 2, 0] = 1.47, 1.0, DEPTH_FAR
+    image = encoder._input("rgb_depth", scene)[0, 0].numpy()
+    assert image[0, 0] == pytest.approx(-0.6, rel=1e-4)  # 3 cm nearer
+    assert (image[1, 1], image[2, 2], image[3, 3]) == (-1.0, 1.0, 0.0)
+    run = {"env_id": ENV_ID, "env_kwargs": DEPTH, "student": arch}
+    save_model(model, tmp_path / "model.zip", run)
+    student = load_student(tmp_path / "model.zip")
+    assert student.policy.features_extractor.depth_range == 0.05
+    obs = make_vec_env(ENV_ID, n_envs=2, seed=5, **DEPTH).reset()
+    ours, _ = student.predict(obs, deterministic=True)
+    theirs, _ = model.predict(obs, deterministic=True)
+    np.testing.assert_array_equal(ours, theirs)
 
 
 def test_a_depth_student_learns_and_loads_by_data(tmp_path: Path) -> None:

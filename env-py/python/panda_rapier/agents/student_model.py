@@ -14,6 +14,7 @@ Needs the ``train`` extra (stable-baselines3 and torch).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -54,6 +55,7 @@ DEFAULT_ARCHITECTURE: dict[str, Any] = {
     "strides": [2, 2, 1, 1],
     "net_arch": {"pi": [256, 256], "vf": [256, 256]},
     "share_features_extractor": True,
+    "depth_range": None,
 }
 
 
@@ -103,7 +105,10 @@ class PixelEncoder(BaseFeaturesExtractor):
     ``(height, width, 1)`` metres, clamped to :data:`DEPTH_CLIP`, less the mean image
     ``depth_mean`` and divided by ``depth_scale``, one pair per depth image, identity until
     :meth:`fit_depth`: what differs from the usual scene, in units of how much it usually
-    differs). Per image, in key order, a CNN (``channels`` and ``strides``; a 5x5
+    differs); or, with ``depth_range`` (metres), less the mean image, clipped to
+    ``[-depth_range, depth_range]`` and divided by it: what stands nearer or farther than the
+    usual scene by up to ``depth_range``, where a small object and the arm both reach the
+    limit. Per image, in key order, a CNN (``channels`` and ``strides``; a 5x5
     first convolution, 3x3 after it, ReLU between) whose last layer's channels become keypoints
     (:class:`SpatialSoftArgmax`); then the other entries flattened in key order and mapped to
     ``clip((x - mean) / scale, -10, 10)`` (identity until :meth:`fit`)."""
@@ -119,6 +124,7 @@ class PixelEncoder(BaseFeaturesExtractor):
         channels: Sequence[int] = (16, 32, 32, 16),
         strides: Sequence[int] = (2, 2, 1, 1),
         clip: float = CLIP,
+        depth_range: float | None = None,
     ) -> None:
         if not isinstance(observation_space, gym.spaces.Dict):
             raise TypeError(f"PixelEncoder needs a Dict space, got {observation_space}")
@@ -164,6 +170,7 @@ class PixelEncoder(BaseFeaturesExtractor):
         self.depth_keys = depth_keys
         self.cnns = nn.ModuleList(cnns)
         self.clip = float(clip)
+        self.depth_range = _depth_range(depth_range)
         self.register_buffer("mean", th.zeros(vector_dim))
         self.register_buffer("scale", th.ones(vector_dim))
         if depth_keys:  # a colour student's weights stay as they were
@@ -200,6 +207,9 @@ class PixelEncoder(BaseFeaturesExtractor):
             return value
         i = self.depth_keys.index(key)
         depth = value.permute(0, 3, 1, 2).clamp(max=DEPTH_CLIP)
+        if self.depth_range is not None:
+            r = self.depth_range
+            return (depth - self.depth_mean[i]).clamp(-r, r) / r
         return (depth - self.depth_mean[i]) / self.depth_scale[i]
 
     def forward(self, observations: Mapping[str, th.Tensor]) -> th.Tensor:
@@ -213,11 +223,22 @@ class PixelEncoder(BaseFeaturesExtractor):
         return th.cat(parts, dim=1)
 
 
+def _depth_range(value: Any) -> float | None:
+    """``depth_range`` checked: ``None`` or metres in ``(0, DEPTH_CLIP]``."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ConfigError(f"student depth_range must be a number of metres, got {value!r}")
+    if not 0.0 < value <= DEPTH_CLIP:
+        raise ConfigError(f"student depth_range must be in (0, {DEPTH_CLIP}] m, got {value}")
+    return float(value)
+
+
 def student_architecture(spec: Any) -> dict[str, Any]:
     """A student's architecture (``channels``, ``strides``, ``net_arch`` with ``pi`` and
-    ``vf``) from a recipe's or a run record's ``student`` entry, checked: plain data only, so
-    a model file's record can be read without running anything. Missing entries take
-    :data:`DEFAULT_ARCHITECTURE`'s."""
+    ``vf``; for depth images ``depth_range``, see :class:`PixelEncoder`) from a recipe's or
+    a run record's ``student`` entry, checked: plain data only, so a model file's record can
+    be read without running anything. Missing entries take :data:`DEFAULT_ARCHITECTURE`'s."""
     if spec is None:
         spec = {}
     if not isinstance(spec, Mapping):
@@ -248,19 +269,27 @@ def student_architecture(spec: Any) -> dict[str, Any]:
     share = arch["share_features_extractor"]
     if not isinstance(share, bool):
         raise ConfigError("student share_features_extractor must be true or false")
-    return {
+    checked = {
         "channels": channels,
         "strides": strides,
         "net_arch": {k: ints(net[k], f"net_arch {k}", 1, 4096) for k in ("pi", "vf")},
         "share_features_extractor": share,
     }
+    depth_range = _depth_range(arch["depth_range"])
+    if depth_range is not None:  # absent otherwise: earlier records read as they were
+        checked["depth_range"] = depth_range
+    return checked
 
 
 def policy_kwargs(arch: Mapping[str, Any]) -> dict[str, Any]:
     """stable-baselines3 ``policy_kwargs`` of a student of architecture ``arch``."""
     return {
         "features_extractor_class": PixelEncoder,
-        "features_extractor_kwargs": {"channels": arch["channels"], "strides": arch["strides"]},
+        "features_extractor_kwargs": {
+            "channels": arch["channels"],
+            "strides": arch["strides"],
+            **({"depth_range": arch["depth_range"]} if arch.get("depth_range") else {}),
+        },
         "net_arch": {"pi": arch["net_arch"]["pi"], "vf": arch["net_arch"]["vf"]},
         "activation_fn": nn.ReLU,
         "share_features_extractor": bool(arch.get("share_features_extractor", True)),
