@@ -32,8 +32,7 @@ from __future__ import annotations
 
 import copy
 import json
-from collections.abc import Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +42,7 @@ from .. import _common
 from ..errors import ConfigError, InvalidArgumentError
 from ..pixels import DEFAULT_CAMERA
 from ..registration import TASKS
+from ._threads import torch_threads
 from .model_file import UnsupportedModelError, UntrustedModelError, read_run_info
 
 __all__ = [
@@ -175,17 +175,6 @@ def _inputs(
     return columns, cameras, size
 
 
-@contextmanager
-def _one_torch_thread(torch: Any) -> Iterator[None]:
-    """torch on one thread inside the block, as many as before after it."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(threads)
-
-
 def _row(value: Any, i: int, n: int) -> Any:
     """Row ``i`` of a batch entry, as a batch of one: tensors and per-row lists sliced, any
     other entry (a processor's bookkeeping) as it is."""
@@ -295,7 +284,7 @@ class LeRobotPolicy:
         action is zero). An environment's view is reset when its episode changes."""
         # One torch thread: the calls are batches of one, and more threads would fight the
         # environments' for the cores (spinning OpenMP workers made a call of ACT take 1 s).
-        with _one_torch_thread(self._torch):
+        with torch_threads(1):
             torch = self._torch
             raw: dict[str, Any] = {"agent_pos": flat[:, self._columns[0]]}
             if self._columns[1] is not None:

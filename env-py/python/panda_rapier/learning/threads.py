@@ -18,11 +18,11 @@ for behaviour cloning's fits (``--update-threads``).
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
-from contextlib import contextmanager
 
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
+
+from ..agents._threads import torch_threads
 
 __all__ = ["UpdateThreads", "all_cores", "torch_threads"]
 
@@ -32,20 +32,6 @@ def all_cores() -> int:
     if hasattr(os, "sched_getaffinity"):
         return len(os.sched_getaffinity(0))
     return os.cpu_count() or 1
-
-
-@contextmanager
-def torch_threads(threads: int | None) -> Iterator[None]:
-    """torch runs on ``threads`` threads inside the block (``None``: unchanged), and on as
-    many as before after it: for a phase in which no environment steps (behaviour cloning's
-    fits)."""
-    found = th.get_num_threads()
-    if threads is not None:
-        th.set_num_threads(threads)
-    try:
-        yield
-    finally:
-        th.set_num_threads(found)
 
 
 class UpdateThreads(BaseCallback):
