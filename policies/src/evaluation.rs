@@ -2,6 +2,10 @@
 //! [`evaluate`] (the scripted policy, from Rust), `panda_rapier.evaluation.evaluate` (any
 //! policy, from Python) and `panda-rapier eval`.
 //!
+//! Over 600 lines: the evaluator, the one place the summary statistics are computed, and
+//! their unit tests (112 lines) belong together; the schedule below is their
+//! contract.
+//!
 //! # The schedule
 //!
 //! An [`Evaluation`] runs `episodes` episodes on `num_envs` environments of a [`PandaVecEnv`]
