@@ -392,9 +392,13 @@ def _parser() -> argparse.ArgumentParser:
         help="plot success rate against env steps and wall time from training runs",
         description="Reads each run's evaluations.jsonl (and its run.json for the label) "
         "and draws success and placed rates, with 95 %% intervals, against env steps and "
-        "against wall-clock minutes. Needs matplotlib.",
+        "against wall-clock minutes. A run directory may also be rl-zoo3's (python -m "
+        "rl_zoo3.train ... --eval-freq N: its evaluations.npz, args.yml and Monitor files), "
+        "e.g. a panda-gym run to compare with. Needs matplotlib.",
     )
-    curves.add_argument("runs", type=Path, nargs="+", help="run directories")
+    curves.add_argument(
+        "runs", type=Path, nargs="+", help="run directories (panda-rapier train's or rl-zoo3's)"
+    )
     curves.add_argument("--out", type=Path, required=True, help="PNG file")
     curves.add_argument(
         "--reference",

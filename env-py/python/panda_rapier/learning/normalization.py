@@ -15,6 +15,15 @@ In a recipe (rl-zoo3 format)::
 
 (``panda-rapier train`` resolves ``NormalizedFlatten``; rl-zoo3 needs the full path
 ``__import__('panda_rapier.learning.normalization').learning.normalization.NormalizedFlatten``.)
+
+rl-zoo3's own recipes say ``normalize: true`` instead (its panda-gym Reach recipe does): a
+``VecNormalize`` wrapper with running statistics of the observations and of the discounted
+return. ``panda-rapier train`` runs such a recipe unchanged and still saves a self-contained
+model: the observations are standardised inside the network by a :class:`NormalizedFlatten`
+whose mean and scale :class:`RunningNormalizer` keeps equal to ``VecNormalize``'s running
+statistics at every step (stable-baselines3 stores raw observations and standardises them when
+it samples, so this is the same arithmetic), and rewards are scaled by ``VecNormalize`` itself
+(``norm_obs=False``). The statistics go into the run's checkpoints as data.
 """
 
 from __future__ import annotations
@@ -37,6 +46,7 @@ from .rollouts import collect
 __all__ = [
     "FitNormalizerCallback",
     "NormalizedFlatten",
+    "RunningNormalizer",
     "expert_statistics",
     "fit_normalizers",
 ]
@@ -136,3 +146,97 @@ class FitNormalizerCallback(BaseCallback):
 
     def _on_step(self) -> bool:
         return True
+
+
+class RunningNormalizer(BaseCallback):
+    """Keeps every :class:`NormalizedFlatten` of the model equal to ``VecNormalize``'s running
+    observation statistics (``(x - mean) / sqrt(var + epsilon)``, clipped to ``clip_obs``),
+    updated with the training environments' observations at the start of training and after
+    every step, as ``VecNormalize`` updates them; :meth:`state` and ``restored`` carry them
+    (and the reward statistics of the model's ``VecNormalize``, if it has one) through a
+    checkpoint as plain data."""
+
+    def __init__(self, settings: Mapping[str, Any], restored: Mapping[str, Any] | None = None):
+        super().__init__(0)
+        from stable_baselines3.common.running_mean_std import RunningMeanStd
+
+        self.settings = dict(settings)
+        self.obs_rms: Any = None
+        self._rms_class = RunningMeanStd
+        self._restored = dict(restored) if restored else None
+        self._extractors: list[NormalizedFlatten] = []
+
+    def _on_training_start(self) -> None:
+        self._extractors = [
+            m for m in self.model.policy.modules() if isinstance(m, NormalizedFlatten)
+        ]
+        if self.settings["norm_obs"] and not self._extractors:
+            raise TypeError("RunningNormalizer needs a policy with NormalizedFlatten extractors")
+        if self.settings["norm_obs"]:
+            self.obs_rms = self._rms_class(shape=(self._extractors[0].features_dim,))
+        if self._restored is not None:
+            self._load(self._restored)
+            self._restored = None
+        elif self.settings["norm_obs"]:
+            self._update(self.model._last_obs)
+        self._push()
+
+    def _on_step(self) -> bool:
+        if self.settings["norm_obs"]:
+            self._update(self.locals["new_obs"])
+            self._push()
+        return True
+
+    def _update(self, observations: Any) -> None:
+        keys = self._extractors[0].keys
+        n = len(observations[keys[0]])
+        flat = np.concatenate([np.asarray(observations[k]).reshape(n, -1) for k in keys], axis=1)
+        self.obs_rms.update(flat)  # in the observations' dtype, as VecNormalize does
+
+    def _push(self) -> None:
+        if self.obs_rms is None:
+            return
+        mean = th.as_tensor(self.obs_rms.mean, dtype=th.float32)
+        scale = th.as_tensor(np.sqrt(self.obs_rms.var + self.settings["epsilon"]),
+                             dtype=th.float32)  # fmt: skip
+        for module in self._extractors:
+            module.mean.copy_(mean)
+            module.scale.copy_(scale)
+
+    def state(self) -> dict[str, Any]:
+        """The running statistics as plain data (for a checkpoint's ``state.json``)."""
+        state: dict[str, Any] = {}
+        if self.obs_rms is not None:
+            state["obs"] = _rms_state(self.obs_rms)
+        vec_normalize = self.model.get_vec_normalize_env() if self.model is not None else None
+        if vec_normalize is not None:
+            state["return"] = _rms_state(vec_normalize.ret_rms)
+        return state
+
+    def _load(self, state: Mapping[str, Any]) -> None:
+        from ..errors import InvalidArgumentError
+
+        try:
+            if self.obs_rms is not None:
+                _rms_load(self.obs_rms, state["obs"])
+            vec_normalize = self.model.get_vec_normalize_env()
+            if vec_normalize is not None:
+                _rms_load(vec_normalize.ret_rms, state["return"])
+        except (KeyError, TypeError, ValueError) as error:
+            raise InvalidArgumentError(
+                f"the checkpoint's normalisation statistics do not fit the recipe: {error}"
+            ) from error
+
+
+def _rms_state(rms: Any) -> dict[str, Any]:
+    return {
+        "mean": np.atleast_1d(rms.mean).tolist(),
+        "var": np.atleast_1d(rms.var).tolist(),
+        "count": float(rms.count),
+    }
+
+
+def _rms_load(rms: Any, state: Mapping[str, Any]) -> None:
+    mean = np.asarray(state["mean"], dtype=np.float64).reshape(np.shape(rms.mean))
+    var = np.asarray(state["var"], dtype=np.float64).reshape(np.shape(rms.var))
+    rms.mean, rms.var, rms.count = mean, var, float(state["count"])

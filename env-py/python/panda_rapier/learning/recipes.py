@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import math
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
@@ -35,6 +36,7 @@ __all__ = [
     "BC_KEYS",
     "DEFAULT",
     "FINAL_CHOICES",
+    "NORMALIZE_DEFAULTS",
     "STUDENT_KEYS",
     "VALIDATION",
     "VALIDATION_DEFAULTS",
@@ -43,8 +45,10 @@ __all__ = [
     "evaluate_expression",
     "load_recipe",
     "model_kwargs",
+    "normalize_settings",
     "recipe_callbacks",
     "recipe_ids",
+    "recipe_normalization",
     "recipe_validation",
     "recipes_train_alike",
     "resolve_validation",
@@ -157,12 +161,11 @@ def load_recipe(algo: str, env_id: str, conf: str | Path | None = None) -> dict[
     for key in _UNSUPPORTED:
         if key in recipe:
             raise ConfigError(f"recipe key {key!r} is not supported by panda-rapier train")
-    if recipe.get("normalize"):
-        raise ConfigError(
-            "recipe key 'normalize' (VecNormalize) is not used here: normalise inside the "
-            "network with features_extractor_class=NormalizedFlatten, so the saved model is "
-            "self-contained"
-        )
+    if "normalize" in recipe:
+        if algo == "bc":
+            raise ConfigError("recipe key 'normalize' is for ppo, sac and tqc, not bc")
+        if not isinstance(recipe["normalize"], str):  # a string needs evaluating: on use
+            normalize_settings(recipe["normalize"], recipe.get("gamma"))
     if algo == "bc":
         keys = STUDENT_KEYS if "student" in recipe else BC_KEYS
         unknown = set(recipe) - set(keys)
@@ -170,6 +173,88 @@ def load_recipe(algo: str, env_id: str, conf: str | Path | None = None) -> dict[
             raise ConfigError(f"unknown bc recipe keys {sorted(unknown)}; known: {list(keys)}")
         return {**keys, **recipe}
     return recipe
+
+
+#: What a recipe's ``normalize`` may set (``VecNormalize``'s arguments, rl-zoo3's meaning) and
+#: what each is when it does not; ``gamma`` is the recipe's own when it has one, as rl-zoo3
+#: makes it.
+NORMALIZE_DEFAULTS: dict[str, Any] = {
+    "norm_obs": True,
+    "norm_reward": True,
+    "clip_obs": 10.0,
+    "clip_reward": 10.0,
+    "gamma": 0.99,
+    "epsilon": 1e-8,
+}
+
+
+def normalize_settings(value: Any, gamma: Any = None) -> dict[str, Any] | None:
+    """A recipe's ``normalize`` (rl-zoo3's forms: ``true``/``false``, a mapping of
+    ``VecNormalize``'s arguments, or that mapping as a string once :func:`evaluate_expression`
+    has read it) as :data:`NORMALIZE_DEFAULTS`' keys, or ``None`` when it normalises nothing.
+    A bad value is a :class:`~panda_rapier.errors.ConfigError` naming the key."""
+    if value is None or value is False:
+        return None
+    given: Mapping[str, Any] = {} if value is True else value
+    if not isinstance(given, Mapping):
+        raise ConfigError(
+            "recipe key 'normalize' must be true, false or a mapping of VecNormalize's "
+            f"arguments {sorted(NORMALIZE_DEFAULTS)}, got {value!r}"
+        )
+    unknown = set(given) - set(NORMALIZE_DEFAULTS)
+    if unknown:
+        raise ConfigError(
+            f"recipe key 'normalize' has unknown arguments {sorted(unknown)}; known: "
+            f"{sorted(NORMALIZE_DEFAULTS)}"
+        )
+    settings = dict(NORMALIZE_DEFAULTS)
+    if gamma is not None:
+        settings["gamma"] = gamma
+    settings.update(given)
+    for key in ("norm_obs", "norm_reward"):
+        if not isinstance(settings[key], bool):
+            raise ConfigError(f"recipe key 'normalize': {key} must be true or false")
+    for key in ("clip_obs", "clip_reward", "gamma", "epsilon"):
+        number = settings[key]
+        if isinstance(number, bool) or not isinstance(number, int | float):
+            raise ConfigError(f"recipe key 'normalize': {key} must be a number, got {number!r}")
+        if not math.isfinite(number) or number <= 0 or (key == "gamma" and number > 1):
+            raise ConfigError(
+                f"recipe key 'normalize': {key} must be "
+                + ("in (0, 1]" if key == "gamma" else "a positive finite number")
+                + f", got {number!r}"
+            )
+        settings[key] = float(number)
+    if not settings["norm_obs"] and not settings["norm_reward"]:
+        return None
+    return settings
+
+
+def recipe_normalization(recipe: Mapping[str, Any]) -> dict[str, Any] | None:
+    """The recipe's ``normalize`` as :func:`normalize_settings` reads it (a string evaluated
+    as rl-zoo3 does), checked against its ``policy_kwargs``: observations are standardised
+    once, so a recipe that also names a ``features_extractor_class`` is refused."""
+    value = recipe.get("normalize")
+    if isinstance(value, str):
+        try:
+            value = evaluate_expression(value)
+        except ConfigError as error:
+            raise ConfigError(
+                "recipe key 'normalize' must be true, false or a mapping of VecNormalize's "
+                f"arguments {sorted(NORMALIZE_DEFAULTS)} (or such a dict as a string): {error}"
+            ) from error
+    settings = normalize_settings(value, recipe.get("gamma"))
+    if settings is not None and settings["norm_obs"]:
+        kwargs = recipe.get("policy_kwargs") or {}
+        if isinstance(kwargs, str):
+            kwargs = evaluate_expression(kwargs)
+        if isinstance(kwargs, Mapping) and "features_extractor_class" in kwargs:
+            raise ConfigError(
+                "recipe key 'normalize' standardises the observations inside the network "
+                "(a NormalizedFlatten with running statistics), so policy_kwargs must not "
+                "name a features_extractor_class as well; drop one of the two"
+            )
+    return settings
 
 
 def recipes_train_alike(first: Mapping[str, Any], second: Mapping[str, Any]) -> bool:
@@ -245,11 +330,22 @@ def algorithm_class(algo: str, stock: bool = False) -> Any:
 def model_kwargs(algo: str, recipe: Mapping[str, Any]) -> dict[str, Any]:
     """The algorithm's constructor arguments from a recipe (rl-zoo3's conventions: string
     ``policy_kwargs`` / ``replay_buffer_kwargs`` evaluated, ``lin_X`` schedules,
-    ``HerReplayBuffer`` by name), without the keys that configure the run."""
+    ``HerReplayBuffer`` by name), without the keys that configure the run. A ``normalize``
+    recipe's policy standardises its observations in a :class:`NormalizedFlatten`
+    (:class:`~panda_rapier.learning.normalization.RunningNormalizer` keeps it up to date)."""
     kwargs = {k: v for k, v in recipe.items() if k not in _RUN_KEYS}
     for key in ("policy_kwargs", "replay_buffer_kwargs"):
         if isinstance(kwargs.get(key), str):
             kwargs[key] = evaluate_expression(kwargs[key])
+    normalization = recipe_normalization(recipe)
+    if normalization is not None and normalization["norm_obs"]:
+        from .normalization import NormalizedFlatten
+
+        kwargs["policy_kwargs"] = {
+            **(kwargs.get("policy_kwargs") or {}),
+            "features_extractor_class": NormalizedFlatten,
+            "features_extractor_kwargs": {"clip": normalization["clip_obs"]},
+        }
     for key in ("learning_rate", "clip_range"):
         if key in kwargs:
             kwargs[key] = _schedule(kwargs[key])

@@ -40,6 +40,7 @@ from typing import Any
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from stable_baselines3.common.vec_env import VecNormalize
 
 from ..agents.model_file import read_run_info
 from ..agents.student_model import policy_kwargs, student_architecture
@@ -50,6 +51,7 @@ from ..sb3 import make_vec_env
 from ..seeds import TRAIN_FIRST_SEED, TRAIN_SEED_STRIDE
 from . import checkpoint
 from .imitation import train_bc
+from .normalization import RunningNormalizer
 from .phases import PhaseClock, describe_split
 from .recipes import (
     VALIDATION,
@@ -57,6 +59,7 @@ from .recipes import (
     load_recipe,
     model_kwargs,
     recipe_callbacks,
+    recipe_normalization,
     resolve_validation,
 )
 from .runs import (
@@ -84,10 +87,12 @@ def _sb3_callback(
     stop_at: float | None = None,
     split: Callable[[], dict[str, float]] | None = None,
     on_checkpoint: Callable[[Path], None] | None = None,
+    normalizer: RunningNormalizer | None = None,
 ) -> Any:
     """The callback that evaluates every ``eval_every`` env steps (stopping early as
     :func:`~panda_rapier.learning.runs.stop_reason` says) and writes a checkpoint every
-    ``checkpoint_every``; its ``save_checkpoint()`` writes one at once."""
+    ``checkpoint_every``; its ``save_checkpoint()`` writes one at once (with ``normalizer``'s
+    statistics, a ``normalize`` recipe's, in its state)."""
     out = recorder.out
 
     class Periodic(BaseCallback):
@@ -110,6 +115,8 @@ def _sb3_callback(
             saved["wall_time_s"] = recorder.wall_time()
             if split is not None:
                 saved["wall_time_split"] = split()
+            if normalizer is not None:
+                saved["normalize"] = normalizer.state()
             checkpoint.save(self.model, out / "checkpoints", saved, recorder.run)
             write_run(out, recorder.run)
             recorder.checkpoint_time += time.perf_counter() - began
@@ -323,7 +330,14 @@ def _sb3_model(
     whether updates overlap rollouts."""
     algo, env_id = str(run["algo"]), str(run["env_id"])
     total = int(timesteps if timesteps is not None else recipe.get("n_timesteps", 1_000_000))
+    if n_envs is None and resume and previous and previous.get("n_envs"):
+        n_envs = int(previous["n_envs"])  # a resumed run keeps its environments (and buffer)
     n = int(n_envs if n_envs is not None else recipe.get("n_envs", 1))
+    if resume and previous and previous.get("n_envs") not in (None, n):
+        raise InvalidArgumentError(
+            f"--n-envs {n}: the run in {out} was trained on {previous['n_envs']} environments "
+            "and resumes on as many (its replay buffer and checkpoint are per environment)"
+        )
     run.update(n_envs=n, n_timesteps=total)
     algorithm = algorithm_class(algo, stock=stock_sb3)
     run["algorithm_class"] = f"{algorithm.__module__}.{algorithm.__qualname__}"
@@ -346,7 +360,19 @@ def _sb3_model(
         state.update(json.loads((out / "checkpoints" / "state.json").read_text()))
     # A resumed run's environments start from seeds its first part never used.
     env_seed = int(run["train_first_seed"]) + int(state["num_timesteps"])
-    env = make_vec_env(env_id, n_envs=n, seed=env_seed, num_threads=num_threads, **options)
+    env: Any = make_vec_env(env_id, n_envs=n, seed=env_seed, num_threads=num_threads, **options)
+    normalization = recipe_normalization(recipe)
+    if normalization is not None:
+        if overlap_updates or student is not None:
+            raise ConfigError(
+                "recipe key 'normalize' does not combine with overlapped updates or a "
+                "student's network"
+            )
+        run["normalize"] = normalization
+        if normalization["norm_reward"]:  # observations: in the network (RunningNormalizer)
+            env = VecNormalize(env, norm_obs=False, norm_reward=True, gamma=normalization["gamma"],
+                               clip_reward=normalization["clip_reward"],
+                               epsilon=normalization["epsilon"])  # fmt: skip
     kwargs = model_kwargs(algo, recipe)
     if student is not None:
         run["student"], kwargs["policy_kwargs"] = _student_network(
@@ -418,11 +444,17 @@ def _learn(
             for phase, seconds in clock.split().items()
         }
 
+    normalization = run.get("normalize")
+    normalizer = None
+    if normalization is not None:  # first: the step's statistics before evaluations
+        normalizer = RunningNormalizer(normalization, state.get("normalize") if resume else None)
     periodic = _sb3_callback(
         recorder, eval_every or 0, checkpoint_every or 0, state, patience, stop_at, split,
-        on_checkpoint,
+        on_checkpoint, normalizer,
     )  # fmt: skip
     callbacks = [*recipe_callbacks(recipe.get("callback")), periodic]
+    if normalizer is not None:
+        callbacks.insert(0, normalizer)
     if (
         isinstance(model, OnPolicyAlgorithm) and not run["overlap_updates"]
     ):  # rollouts, updates take turns
