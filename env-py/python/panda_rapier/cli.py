@@ -422,7 +422,13 @@ def _parser() -> argparse.ArgumentParser:
         "recorded intervals; rows whose record changed are listed on stderr.",
     )
     table.add_argument("folder", type=Path)
-    table.add_argument("--out", type=Path, default=None, help="default: FOLDER/README.md")
+    table.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="default: FOLDER/README.md; the records are evaluations.json beside it (read, "
+        "for --only and for records kept, and written)",
+    )
     table.add_argument("--episodes", type=_positive, default=1000)
     table.add_argument(
         "--only",
