@@ -137,9 +137,7 @@ def test_a_normalize_model_acts_without_its_training_environment(tmp_path: Path)
         ({"clip_obs": float("nan")}, "clip_obs must be a positive finite number"),
     ],
 )
-def test_bad_normalize_values_are_config_errors(
-    tmp_path: Path, value: object, words: str
-) -> None:
+def test_bad_normalize_values_are_config_errors(tmp_path: Path, value: object, words: str) -> None:
     from panda_rapier.learning.recipes import load_recipe, model_kwargs
 
     conf = _conf(tmp_path / "tqc.yml", normalize=value)
