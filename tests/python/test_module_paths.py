@@ -139,7 +139,8 @@ def _current(value: Any) -> Any:
 def test_every_id_loads_the_recipe_it_had_before_the_layout_changed(algo: str) -> None:
     """Pinned from the recipe files of 0.1 (bc.yml then listed all 28 ids, now its default
     serves them); class paths are compared by their new names. Ids added since have nothing
-    to keep."""
+    to keep. The tqc entries were changed on purpose on 2026-11-30 and pinned again: rl-zoo3's
+    panda-gym hyperparameters, unchanged, for every matching id (CHANGELOG)."""
     before = json.loads(BEFORE.read_text())
     pinned = [key.split(" ", 1)[1] for key in before if key.startswith(f"{algo} ")]
     assert set(pinned) <= set(panda_rapier.ENV_IDS), "every id of 0.1 is still registered"
