@@ -103,13 +103,13 @@ def test_curves_read_rl_zoo3_runs_by_data(tmp_path: Path) -> None:
     import yaml
 
     from panda_rapier.cli import main
-    from panda_rapier.tools.reporting import _zoo_curve
+    from panda_rapier.tools.zoo_runs import zoo_curve
 
     args = yaml.dump(collections.OrderedDict([("algo", "tqc"), ("env", "PandaReach-v3"),
                                               ("seed", 3)]))  # fmt: skip
     assert args.startswith("!!python/object/apply:collections.OrderedDict")
     run = _zoo_run(tmp_path / "zoo", args)
-    label, lines = _zoo_curve(run)
+    label, lines = zoo_curve(run)
     assert label == "tqc (rl-zoo3) PandaReach-v3 (seed 3)"
     assert [line["success_rate"] for line in lines] == [0.2, 0.8]
     assert [line["wall_time_s"] for line in lines] == [5.0, 10.0]

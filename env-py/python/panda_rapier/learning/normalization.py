@@ -35,6 +35,7 @@ import gymnasium as gym
 import numpy as np
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
 from .. import _common
@@ -158,11 +159,8 @@ class RunningNormalizer(BaseCallback):
 
     def __init__(self, settings: Mapping[str, Any], restored: Mapping[str, Any] | None = None):
         super().__init__(0)
-        from stable_baselines3.common.running_mean_std import RunningMeanStd
-
         self.settings = dict(settings)
         self.obs_rms: Any = None
-        self._rms_class = RunningMeanStd
         self._restored = dict(restored) if restored else None
         self._extractors: list[NormalizedFlatten] = []
 
@@ -173,7 +171,7 @@ class RunningNormalizer(BaseCallback):
         if self.settings["norm_obs"] and not self._extractors:
             raise TypeError("RunningNormalizer needs a policy with NormalizedFlatten extractors")
         if self.settings["norm_obs"]:
-            self.obs_rms = self._rms_class(shape=(self._extractors[0].features_dim,))
+            self.obs_rms = RunningMeanStd(shape=(self._extractors[0].features_dim,))
         if self._restored is not None:
             self._load(self._restored)
             self._restored = None

@@ -6,6 +6,8 @@ Both read what ``panda-rapier train`` writes (``evaluations.jsonl``, ``run.json`
 record inside each model zip); the table evaluates every row as ``panda-rapier eval --policy
 SPEC`` does (:func:`panda_rapier.agents.inference.resolve_policy`, the same call), so nothing in it
 is typed by hand.
+
+Over 600 lines: the three reports share the row evaluation and the run-record reading.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from ..errors import ConfigError, InvalidArgumentError
 from ..learning.recipes import load_recipe, recipe_validation, recipes_train_alike
 from ..pixels import RANDOMIZATION_GROUPS, randomization_of
 from ..registration import TASK_NAMES, task_id, task_places, variant
+from .zoo_runs import is_zoo_run, zoo_curve
 
 __all__ = [
     "ROBUSTNESS_CONDITIONS",
@@ -49,74 +52,6 @@ def _evaluations(run: Path) -> list[dict[str, Any]]:
     except OSError as error:
         raise InvalidArgumentError(f"{run} has no evaluations.jsonl: {error}") from error
     return [json.loads(line) for line in lines if line.strip()]
-
-
-def _zoo_arguments(run: Path) -> dict[str, Any]:
-    """The ``args.yml`` rl-zoo3 writes into a run folder (``RUN/ENV/args.yml``), read as data:
-    its one Python tag (an ``OrderedDict`` as a list of pairs) becomes a dict, and nothing is
-    constructed from any other tag."""
-    import yaml
-
-    class Loader(yaml.SafeLoader):
-        pass
-
-    def pairs(loader: yaml.SafeLoader, node: yaml.Node) -> dict[str, Any]:
-        items = loader.construct_sequence(node, deep=True)  # type: ignore[arg-type]
-        return {str(k): v for k, v in (items[0] if items else [])}
-
-    Loader.add_constructor("tag:yaml.org,2002:python/object/apply:collections.OrderedDict",
-                           pairs)  # fmt: skip
-    found = sorted(run.glob("*/args.yml"))
-    if not found:
-        raise InvalidArgumentError(f"{run}: an rl-zoo3 run folder has ENV/args.yml; none found")
-    try:
-        data = yaml.load(found[0].read_text(), Loader=Loader)  # a SafeLoader: data only
-    except yaml.YAMLError as error:
-        raise InvalidArgumentError(f"{found[0]} is not rl-zoo3's args.yml: {error}") from error
-    if not isinstance(data, dict):
-        raise InvalidArgumentError(f"{found[0]} is not rl-zoo3's args.yml")
-    return data
-
-
-def _zoo_curve(run: Path) -> tuple[str, list[dict[str, Any]]]:
-    """An rl-zoo3 run folder (``python -m rl_zoo3.train ... --eval-freq N``) as a label and
-    evaluation lines like ``evaluations.jsonl``'s: success rate (with its Wilson interval) of
-    each evaluation in ``evaluations.npz``, and the wall time at that step from the training
-    Monitor files (``*.monitor.csv``: episodes' lengths and end times; evaluations included)."""
-    import csv
-
-    import numpy as np
-
-    from ..agents.evaluation import wilson_interval
-
-    arguments = _zoo_arguments(run)
-    with np.load(run / "evaluations.npz", allow_pickle=False) as data:
-        if "successes" not in data.files:
-            raise InvalidArgumentError(
-                f"{run}/evaluations.npz has no successes: the environment reported no is_success"
-            )
-        steps, successes = data["timesteps"], data["successes"]
-    # (env steps done, seconds) at each training episode's end; with n environments (one
-    # Monitor file each, stepped together) n times one file's steps.
-    monitors = sorted(run.glob("*.monitor.csv"))
-    ends: list[tuple[int, float]] = []
-    for monitor in monitors:
-        done = 0
-        for row in csv.DictReader(monitor.read_text().splitlines()[1:]):
-            done += int(row["l"])
-            ends.append((done * len(monitors), float(row["t"])))
-    ends.sort()
-    lines = []
-    for step, outcomes in zip(steps.tolist(), successes, strict=True):
-        wins, n = int(np.sum(outcomes)), int(np.size(outcomes))
-        seconds = next((t for done, t in ends if done >= step), ends[-1][1] if ends else 0.0)
-        lines.append({
-            "env_steps": int(step), "wall_time_s": seconds, "success_rate": wins / max(n, 1),
-            "success_ci95": list(wilson_interval(wins, n)), "placed_rate": 0.0,
-        })  # fmt: skip
-    label = (f"{arguments.get('algo', '?')} (rl-zoo3) {arguments.get('env', '?')}"
-             f" (seed {arguments.get('seed', '?')})")  # fmt: skip
-    return label, lines
 
 
 def run_label(run: dict[str, Any]) -> str:
@@ -175,14 +110,13 @@ def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) 
     longest = 0.0
     drew_placed = False
     for index, run_dir in enumerate(runs):
-        if (Path(run_dir) / "evaluations.npz").is_file() and not (
-            Path(run_dir) / "run.json"
-        ).is_file():
-            label, lines = _zoo_curve(Path(run_dir))
-            run: dict[str, Any] = {"label": label}
+        folder = Path(run_dir)
+        if is_zoo_run(folder):
+            name, lines = zoo_curve(folder)
+            run: dict[str, Any] = {}
         else:
-            lines = _evaluations(Path(run_dir))
-            run = json.loads((Path(run_dir) / "run.json").read_text())
+            lines, run = _evaluations(folder), json.loads((folder / "run.json").read_text())
+            name = run_label(run)
         color = f"C{index}"
         source = (run.get("init_from") or {}).get("run") or {}
         step0 = int(source.get("env_steps", 0))
@@ -195,7 +129,6 @@ def plot_curves(runs: Sequence[Path], out: Path, reference: Path | None = None) 
         high = [line["success_ci95"][1] for line in lines]
         placed = [line["placed_rate"] for line in lines]
         for axis, x in ((by_steps, steps), (by_time, minutes)):
-            name = run.get("label") or run_label(run)
             axis.plot(x, success, "-o", color=color, ms=3, label=f"{name}: success")
             axis.fill_between(x, low, high, color=color, alpha=0.15)
             if any(placed):  # tasks without placing report 0 throughout
