@@ -43,6 +43,7 @@ from panda_rapier.agents.inference import (
     load_policy,
 )
 from panda_rapier.agents.model_file import (
+    RUN_MEMBER,
     _load_weights,
     _rebuild_tensor,
     load_sb3_model,
@@ -73,10 +74,13 @@ def _states(name: str) -> np.ndarray:
 @pytest.mark.parametrize("name", SHIPPED)
 def test_native_network_is_the_torch_policy_up_to_rounding(name: str) -> None:
     """The native float64 actions equal torch's float64 forward pass of the same weights to
-    float32 rounding, and torch's float32 actions to its float32 error."""
-    model = load_sb3_model(MODELS / name, algo="ppo", trust=True)  # zips of 0.1: quietly
+    float32 rounding, and torch's float32 actions to its float32 error (PPO and cloned models
+    as actor-critics, TQC's squashed Gaussian actor as SAC's)."""
+    algo = str((read_run_info(MODELS / name) or {}).get("saved_algo") or "ppo")
+    model = load_sb3_model(MODELS / name, algo=algo, trust=True)  # zips of 0.1: quietly
     native = PolicyNetwork.from_zip(MODELS / name)
-    assert native.algorithm == "actor-critic" and native.inference == NATIVE
+    family = {"ppo": "actor-critic", "sac": "sac", "tqc": "sac"}[algo]
+    assert native.algorithm == family and native.inference == NATIVE
     rows = _states(name)
     actions = native.act(rows)
     assert actions.dtype == np.float32 and actions.shape == (len(rows), native.action_dim)
@@ -187,6 +191,23 @@ def test_unsupported_models_fall_back_to_stable_baselines3(tmp_path: Path) -> No
     assert evaluate(policy, config, 2).inference == TORCH
     with pytest.raises(InvalidArgumentError, match="not a stable-baselines3 model"):
         PolicyNetwork.from_zip(tmp_path / "missing.zip")
+
+
+def test_a_her_model_loads_with_the_environment_its_record_names(tmp_path: Path) -> None:
+    """stable-baselines3 needs an environment to load a model saved with HerReplayBuffer: the
+    run record's id gives one; without a record the message says to pass ``env=``."""
+    model = load_sb3_model(MODELS / "tqc-Reach-v0.zip", trust=True)
+    assert type(model).__name__ == "TQC" and model.get_env().num_envs == 1
+    bare = tmp_path / "bare.zip"
+    with zipfile.ZipFile(MODELS / "tqc-Reach-v0.zip") as source, zipfile.ZipFile(bare, "w") as out:
+        for item in source.infolist():
+            if item.filename != RUN_MEMBER:
+                out.writestr(item, source.read(item.filename))
+    assert read_run_info(bare) is None
+    with pytest.raises(InvalidArgumentError, match=r"HerReplayBuffer.*pass env="):
+        load_sb3_model(bare, trust=True)
+    loaded = load_sb3_model(bare, env=make_vec_env("panda_rapier/Reach-v0"), trust=True)
+    assert type(loaded).__name__ == "TQC"
 
 
 def test_a_model_file_is_read_without_unpickling(tmp_path: Path) -> None:

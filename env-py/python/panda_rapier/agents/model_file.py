@@ -264,9 +264,12 @@ def load_sb3_model(
     path: str | Path, env: Any = None, algo: str | None = None, *, trust: bool = False
 ) -> Any:
     """Loads a saved stable-baselines3 (or sb3-contrib) model on the CPU. The algorithm is read
-    from the file unless ``algo`` names it; ``env`` (a VecEnv with the model's spaces) is
-    needed by models saved with a hindsight replay buffer. stable-baselines3 unpickles entries
-    of the file, which can run code a hostile file carries: without ``trust=True`` this raises
+    from the file unless ``algo`` names it. A model saved with a hindsight replay buffer
+    (``HerReplayBuffer``) needs a VecEnv with its spaces: without ``env``, one environment of the
+    id and options its run record names (:func:`read_run_info`) is made for it; a file without
+    a record raises :class:`~panda_rapier.errors.InvalidArgumentError`. stable-baselines3
+    unpickles entries of the file, which can run code a hostile file carries: without
+    ``trust=True`` this raises
     :class:`~panda_rapier.agents.inference.UntrustedModelError` (to act a model out without trusting
     it, use :class:`~panda_rapier.agents.inference.PolicyNetwork`)."""
     path = Path(path)
@@ -293,8 +296,33 @@ def load_sb3_model(
             f"evaluating a {algo.upper()} model needs stable-baselines3"
             f"{' and sb3-contrib' if algo == 'tqc' else ''}: pip install 'panda-rapier[train]'"
         ) from error
+    if env is None:
+        env = _her_env(path)
     with quiet_moved():  # zips saved before 0.2 name the old class paths in their data
-        return algorithm.load(path, env=env, device="cpu")
+        try:
+            return algorithm.load(path, env=env, device="cpu")
+        except AssertionError as error:  # stable-baselines3's check, as an assert
+            if "HerReplayBuffer" not in str(error):
+                raise
+            raise InvalidArgumentError(
+                f"{path} was saved with a hindsight replay buffer (HerReplayBuffer) and has no "
+                "run record naming its environment: pass env=, a VecEnv with its spaces"
+            ) from None
+
+
+def _her_env(path: Path) -> Any:
+    """One environment of the run record's id and options, for a model its record says was
+    trained with ``HerReplayBuffer`` (stable-baselines3 needs one to load it); else ``None``."""
+    run = read_run_info(path) or {}
+    recipe = run.get("recipe")
+    her = isinstance(recipe, Mapping) and "HerReplayBuffer" in str(
+        recipe.get("replay_buffer_class", "")
+    )
+    if not her or not isinstance(run.get("env_id"), str):
+        return None
+    from ..sb3 import make_vec_env  # stable-baselines3: only for models that need an env
+
+    return make_vec_env(run["env_id"], n_envs=1, **dict(run.get("env_kwargs") or {}))
 
 
 def saved_spaces(model_path: str | Path, *, trust: bool = False) -> tuple[Any, Any]:
