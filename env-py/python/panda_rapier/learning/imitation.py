@@ -34,10 +34,12 @@ from tqdm import tqdm
 
 from .. import _common
 from ..agents.model_file import save_model
-from ..errors import InvalidArgumentError
+from ..errors import ConfigError, InvalidArgumentError
+from ..policy import ScriptedPolicy
 from ..sb3 import make_vec_env
 from .normalization import fit_normalizers
 from .recipes import evaluate_expression
+from .recipes import phase_weights as check_phase_weights
 from .rollouts import Demonstrations, RolloutStats, collect
 from .runs import Recorder, write_run
 from .threads import torch_threads
@@ -48,6 +50,7 @@ __all__ = [
     "behaviour_cloning",
     "collect",
     "dagger",
+    "phase_row_weights",
     "train_bc",
 ]
 
@@ -62,15 +65,27 @@ def behaviour_cloning(
     final_lr_fraction: float = 0.05,
     seed: int = 0,
     progress: Callable[[int, float], None] | None = None,
+    weights: np.ndarray | None = None,
 ) -> list[float]:
     """Fits the mean action of ``model``'s policy (an SB3 actor-critic, e.g. PPO's
     ``MultiInputPolicy``) to the expert's actions in ``demos`` by mean squared error, with Adam,
     for ``epochs`` passes over the data in shuffled mini-batches, the learning rate falling
     linearly to ``final_lr_fraction`` of ``learning_rate``. The observation normaliser
-    (:class:`NormalizedFlatten`) must already be fitted. Returns the mean loss of each epoch;
-    ``progress(epoch, loss)`` is called after each."""
+    (:class:`NormalizedFlatten`) must already be fitted. ``weights`` (one per row, >= 0) make
+    the loss a weighted mean over each mini-batch's rows (:func:`phase_row_weights`); without
+    them every row counts alike. Returns the mean loss of each epoch; ``progress(epoch, loss)``
+    is called after each."""
     if len(demos) == 0:
         raise InvalidArgumentError("behaviour cloning needs at least one demonstration row")
+    row_weights = None
+    if weights is not None:
+        weights = np.asarray(weights, dtype=np.float32)
+        if weights.shape != (len(demos),) or not np.all(np.isfinite(weights)) or weights.min() < 0:
+            raise InvalidArgumentError(
+                f"weights must be {len(demos)} finite numbers >= 0, one per row; got shape "
+                f"{weights.shape}"
+            )
+        row_weights = th.as_tensor(weights)
     policy = model.policy
     policy.set_training_mode(True)
     generator = np.random.default_rng(seed)
@@ -94,7 +109,12 @@ def behaviour_cloning(
             index = order[start : start + batch_size]
             batch = {k: v[index] for k, v in obs.items()}
             mean = policy.get_distribution(batch).distribution.mean
-            loss = th.nn.functional.mse_loss(mean, target[index])
+            if row_weights is None:
+                loss = th.nn.functional.mse_loss(mean, target[index])
+            else:
+                w = row_weights[index]
+                per_row = ((mean - target[index]) ** 2).mean(dim=1)
+                loss = (per_row * w).sum() / w.sum().clamp_min(1e-12)
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
@@ -105,6 +125,18 @@ def behaviour_cloning(
             progress(epoch + 1, losses[-1])
     policy.set_training_mode(False)
     return losses
+
+
+def phase_row_weights(
+    config: Mapping[str, Any], observations: np.ndarray, phase_weights: Mapping[str, float]
+) -> tuple[np.ndarray, set[str]]:
+    """The cloning loss's weight of each flat observation row: the weight ``phase_weights``
+    gives the phase the scripted expert of ``config`` recognises in it
+    (:meth:`~panda_rapier.ScriptedPolicy.phases`), 1 for phases it does not list. Returns the
+    weights and the set of phases seen."""
+    phases = ScriptedPolicy(config).phases(observations)
+    weights = np.array([phase_weights.get(p, 1.0) for p in phases], dtype=np.float32)
+    return weights, set(phases)
 
 
 def dagger(
@@ -125,6 +157,7 @@ def dagger(
     fit_threads: int | None = None,
     on_round: Callable[[int, Demonstrations, RolloutStats | None, list[float]], None] | None = None,
     progress: Callable[[str, int, int], None] | None = None,
+    phase_weights: Mapping[str, float] | None = None,
 ) -> Demonstrations:
     """Behaviour cloning from ``demo_episodes`` expert episodes, then ``rounds`` of DAgger, each
     driving ``episodes_per_round`` episodes with the learner, labelling them with the expert and
@@ -135,8 +168,12 @@ def dagger(
     during a fit, so every core can go to it) and everything else as it is set.
     ``on_round(r, data, stats, losses)`` is called after each fit (``stats``: how the learner
     drove in round ``r``; ``None`` for round 0, the expert's demonstrations, and for the final
-    fit). Returns all the data gathered."""
+    fit). ``phase_weights`` weigh each state's row in every fit by the expert's phase in it
+    (:func:`phase_row_weights`; a recipe's ``phase_weights``, checked by
+    :func:`~panda_rapier.learning.recipes.phase_weights`); every name must be a phase the
+    expert enters in its demonstrations. Returns all the data gathered."""
     seed = first_seed
+    weights: np.ndarray | None = None
 
     def tick(what: str, total: int) -> Callable[[int], None] | None:
         if progress is None:
@@ -152,10 +189,24 @@ def dagger(
         progress=tick("demonstrations", demo_episodes),
     )
     seed += demo_episodes
+    if phase_weights:
+        weights, seen = phase_row_weights(config, data.observations, phase_weights)
+        missing = sorted(set(phase_weights) - seen)
+        if missing:
+            raise ConfigError(
+                f"recipe key 'phase_weights' names {missing}, which the expert never enters in "
+                f"its {demo_episodes} demonstrations; its phases there: {sorted(seen)}"
+            )
     fit_normalizers(model.policy, data.observations)
     with torch_threads(fit_threads):
         losses = behaviour_cloning(
-            model, data, epochs=epochs, batch_size=batch_size, learning_rate=learning_rate, seed=0
+            model,
+            data,
+            epochs=epochs,
+            batch_size=batch_size,
+            learning_rate=learning_rate,
+            seed=0,
+            weights=weights,
         )
     if on_round is not None:
         on_round(0, data, None, losses)
@@ -171,6 +222,9 @@ def dagger(
         )
         seed += episodes_per_round
         data.extend(new)
+        if weights is not None and phase_weights:
+            more, _ = phase_row_weights(config, new.observations, phase_weights)
+            weights = np.concatenate([weights, more])
         with torch_threads(fit_threads):
             losses = behaviour_cloning(
                 model,
@@ -179,6 +233,7 @@ def dagger(
                 batch_size=batch_size,
                 learning_rate=learning_rate,
                 seed=r,
+                weights=weights,
             )
         if on_round is not None:
             on_round(r, data, stats, losses)
@@ -191,6 +246,7 @@ def dagger(
                 batch_size=batch_size,
                 learning_rate=learning_rate,
                 seed=rounds + 1,
+                weights=weights,
             )
         if on_round is not None:
             on_round(rounds + 1, data, None, losses)
@@ -254,6 +310,8 @@ def train_bc(
         recorder.evaluate(model, env_steps, logger)
         logger.dump(env_steps)
 
+    weights = recipe.get("phase_weights")
+    weights = check_phase_weights(weights) if weights is not None else None
     data = dagger(
         model,
         config,
@@ -271,6 +329,7 @@ def train_bc(
         fit_threads=fit_threads,
         on_round=on_round,
         progress=progress if show_progress else None,
+        phase_weights=weights,
     )
     run["env_steps"] = len(data)
     run["demonstration_episodes"] = data.num_episodes

@@ -34,6 +34,7 @@ from ..errors import ConfigError, InvalidArgumentError
 __all__ = [
     "ALGORITHMS",
     "BC_KEYS",
+    "BC_OPTIONAL_KEYS",
     "DEFAULT",
     "FINAL_CHOICES",
     "NORMALIZE_DEFAULTS",
@@ -46,6 +47,7 @@ __all__ = [
     "load_recipe",
     "model_kwargs",
     "normalize_settings",
+    "phase_weights",
     "recipe_callbacks",
     "recipe_ids",
     "recipe_normalization",
@@ -85,6 +87,10 @@ BC_KEYS = {
     "batch_size": 256,
     "learning_rate": 1e-3,
 }
+#: bc recipe keys that have no default: a recipe without them trains as it did before they
+#: existed. ``phase_weights`` maps the expert's phases (:meth:`~panda_rapier.ScriptedPolicy.phases`)
+#: to the weight of their states in the cloning loss (others weigh 1; :func:`phase_weights`).
+BC_OPTIONAL_KEYS = ("phase_weights",)
 #: A bc recipe with a ``student`` entry (DAgger of a policy that sees,
 #: :mod:`panda_rapier.learning.student`): its keys and their defaults.
 STUDENT_KEYS = {
@@ -167,12 +173,41 @@ def load_recipe(algo: str, env_id: str, conf: str | Path | None = None) -> dict[
         if not isinstance(recipe["normalize"], str):  # a string needs evaluating: on use
             normalize_settings(recipe["normalize"], recipe.get("gamma"))
     if algo == "bc":
-        keys = STUDENT_KEYS if "student" in recipe else BC_KEYS
-        unknown = set(recipe) - set(keys)
+        student = "student" in recipe
+        keys = STUDENT_KEYS if student else BC_KEYS
+        known = list(keys) if student else [*keys, *BC_OPTIONAL_KEYS]
+        unknown = set(recipe) - set(known)
         if unknown:
-            raise ConfigError(f"unknown bc recipe keys {sorted(unknown)}; known: {list(keys)}")
+            raise ConfigError(f"unknown bc recipe keys {sorted(unknown)}; known: {known}")
+        if "phase_weights" in recipe:
+            phase_weights(recipe["phase_weights"])
         return {**keys, **recipe}
     return recipe
+
+
+def phase_weights(value: Any) -> dict[str, float]:
+    """A bc recipe's ``phase_weights``, checked: a mapping from the scripted expert's phase
+    names (``slide``, ``let_go``, ...) to finite weights >= 0. The states the expert labels
+    with a listed phase weigh that much in the cloning loss, every other state 1, so a phase
+    that decides the outcome but fills few rows (Slide's speed-up, about 6 % of them) is
+    fitted more closely. Raises :class:`~panda_rapier.errors.ConfigError` naming the key."""
+    if not isinstance(value, Mapping) or not value:
+        raise ConfigError(
+            "recipe key 'phase_weights' must map the expert's phase names to weights, e.g. "
+            f"{{slide: 4.0, let_go: 4.0}}; got {value!r}"
+        )
+    weights: dict[str, float] = {}
+    for name, weight in value.items():
+        if not isinstance(name, str) or not name:
+            raise ConfigError(f"recipe key 'phase_weights' needs phase names as keys; got {name!r}")
+        ok = isinstance(weight, (int, float)) and not isinstance(weight, bool)
+        if not ok or not math.isfinite(float(weight)) or float(weight) < 0.0:
+            raise ConfigError(
+                f"recipe key 'phase_weights': the weight of phase {name!r} must be a finite "
+                f"number >= 0; got {weight!r}"
+            )
+        weights[name] = float(weight)
+    return weights
 
 
 #: What a recipe's ``normalize`` may set (``VecNormalize``'s arguments, rl-zoo3's meaning) and
