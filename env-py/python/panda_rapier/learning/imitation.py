@@ -38,7 +38,7 @@ from ..errors import ConfigError, InvalidArgumentError
 from ..policy import ScriptedPolicy
 from ..sb3 import make_vec_env
 from .normalization import fit_normalizers
-from .recipes import evaluate_expression
+from .recipes import bc_learning_rate, evaluate_expression
 from .recipes import phase_weights as check_phase_weights
 from .rollouts import Demonstrations, RolloutStats, collect
 from .runs import Recorder, write_run
@@ -152,6 +152,8 @@ def dagger(
     final_epochs: int = 0,
     batch_size: int = 256,
     learning_rate: float = 1e-3,
+    dagger_learning_rate: float | None = None,
+    final_learning_rate: float | None = None,
     num_envs: int = 32,
     num_threads: int | None = None,
     fit_threads: int | None = None,
@@ -162,7 +164,10 @@ def dagger(
     """Behaviour cloning from ``demo_episodes`` expert episodes, then ``rounds`` of DAgger, each
     driving ``episodes_per_round`` episodes with the learner, labelling them with the expert and
     refitting on everything gathered, and finally ``final_epochs`` more passes over all of it
-    (a last fit whose learning rate decays over more steps). Episode seeds count up from
+    (a last fit whose learning rate decays over more steps). Each fit's learning rate starts at
+    ``learning_rate`` (the first fit), ``dagger_learning_rate`` (the rounds') or
+    ``final_learning_rate`` (the last; those two are ``learning_rate`` when ``None``) and
+    decays linearly to 5 % of it. Episode seeds count up from
     ``first_seed`` without repeats. The normaliser is fitted to the expert's states. torch
     runs the fits on ``fit_threads`` threads (``None``: as it is set; no environment steps
     during a fit, so every core can go to it) and everything else as it is set.
@@ -174,6 +179,8 @@ def dagger(
     expert enters in its demonstrations. Returns all the data gathered."""
     seed = first_seed
     weights: np.ndarray | None = None
+    round_rate = learning_rate if dagger_learning_rate is None else dagger_learning_rate
+    final_rate = learning_rate if final_learning_rate is None else final_learning_rate
 
     def tick(what: str, total: int) -> Callable[[int], None] | None:
         if progress is None:
@@ -231,7 +238,7 @@ def dagger(
                 data,
                 epochs=epochs_per_round,
                 batch_size=batch_size,
-                learning_rate=learning_rate,
+                learning_rate=round_rate,
                 seed=r,
                 weights=weights,
             )
@@ -244,7 +251,7 @@ def dagger(
                 data,
                 epochs=final_epochs,
                 batch_size=batch_size,
-                learning_rate=learning_rate,
+                learning_rate=final_rate,
                 seed=rounds + 1,
                 weights=weights,
             )
@@ -312,6 +319,10 @@ def train_bc(
 
     weights = recipe.get("phase_weights")
     weights = check_phase_weights(weights) if weights is not None else None
+    rates = [
+        None if recipe.get(key) is None else bc_learning_rate(key, recipe[key])
+        for key in ("dagger_learning_rate", "final_learning_rate")
+    ]
     data = dagger(
         model,
         config,
@@ -323,13 +334,15 @@ def train_bc(
         final_epochs=int(recipe["final_epochs"]),
         first_seed=run["train_first_seed"],
         batch_size=int(recipe["batch_size"]),
-        learning_rate=float(recipe["learning_rate"]),
+        learning_rate=bc_learning_rate("learning_rate", recipe["learning_rate"]),
         num_envs=n,
         num_threads=num_threads,
         fit_threads=fit_threads,
         on_round=on_round,
         progress=progress if show_progress else None,
         phase_weights=weights,
+        dagger_learning_rate=rates[0],
+        final_learning_rate=rates[1],
     )
     run["env_steps"] = len(data)
     run["demonstration_episodes"] = data.num_episodes

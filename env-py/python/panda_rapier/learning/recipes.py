@@ -42,6 +42,7 @@ __all__ = [
     "VALIDATION",
     "VALIDATION_DEFAULTS",
     "algorithm_class",
+    "bc_learning_rate",
     "default_recipe_path",
     "evaluate_expression",
     "load_recipe",
@@ -90,7 +91,10 @@ BC_KEYS = {
 #: bc recipe keys that have no default: a recipe without them trains as it did before they
 #: existed. ``phase_weights`` maps the expert's phases (:meth:`~panda_rapier.ScriptedPolicy.phases`)
 #: to the weight of their states in the cloning loss (others weigh 1; :func:`phase_weights`).
-BC_OPTIONAL_KEYS = ("phase_weights",)
+#: ``dagger_learning_rate`` and ``final_learning_rate`` are the learning rates the DAgger
+#: rounds' fits and the final fit start from (without them, ``learning_rate``, as the first
+#: fit's; :func:`bc_learning_rate`).
+BC_OPTIONAL_KEYS = ("phase_weights", "dagger_learning_rate", "final_learning_rate")
 #: A bc recipe with a ``student`` entry (DAgger of a policy that sees,
 #: :mod:`panda_rapier.learning.student`): its keys and their defaults.
 STUDENT_KEYS = {
@@ -181,8 +185,30 @@ def load_recipe(algo: str, env_id: str, conf: str | Path | None = None) -> dict[
             raise ConfigError(f"unknown bc recipe keys {sorted(unknown)}; known: {known}")
         if "phase_weights" in recipe:
             phase_weights(recipe["phase_weights"])
+        for key in ("learning_rate", "dagger_learning_rate", "final_learning_rate"):
+            if key in recipe:
+                bc_learning_rate(key, recipe[key])
         return {**keys, **recipe}
     return recipe
+
+
+def bc_learning_rate(key: str, value: Any) -> float:
+    """A bc recipe's learning rate ``key`` (``learning_rate``, ``dagger_learning_rate`` or
+    ``final_learning_rate``), checked: a finite number > 0. Raises
+    :class:`~panda_rapier.errors.ConfigError` naming the key. A string that reads as a number
+    is one (YAML 1.1 reads ``1e-3`` without a dot as a string; rl-zoo3's files write
+    ``!!float 1e-3``)."""
+    rate = math.nan
+    if isinstance(value, (int, float, str)) and not isinstance(value, bool):
+        try:
+            rate = float(value)
+        except ValueError:
+            pass
+    if not math.isfinite(rate) or rate <= 0.0:
+        raise ConfigError(
+            f"recipe key {key!r} must be a finite number > 0, e.g. !!float 3e-4; got {value!r}"
+        )
+    return rate
 
 
 def phase_weights(value: Any) -> dict[str, float]:
