@@ -38,7 +38,7 @@ from ..errors import ConfigError, InvalidArgumentError
 from ..policy import ScriptedPolicy
 from ..sb3 import make_vec_env
 from .normalization import fit_normalizers
-from .recipes import bc_learning_rate, evaluate_expression
+from .recipes import BC_LEARNING_RATES, bc_learning_rate, evaluate_expression
 from .recipes import phase_weights as check_phase_weights
 from .rollouts import Demonstrations, RolloutStats, collect
 from .runs import Recorder, write_run
@@ -319,10 +319,7 @@ def train_bc(
 
     weights = recipe.get("phase_weights")
     weights = check_phase_weights(weights) if weights is not None else None
-    rates = [
-        None if recipe.get(key) is None else bc_learning_rate(key, recipe[key])
-        for key in ("dagger_learning_rate", "final_learning_rate")
-    ]
+    rates = {key: bc_learning_rate(key, recipe[key]) for key in BC_LEARNING_RATES if key in recipe}
     data = dagger(
         model,
         config,
@@ -334,15 +331,15 @@ def train_bc(
         final_epochs=int(recipe["final_epochs"]),
         first_seed=run["train_first_seed"],
         batch_size=int(recipe["batch_size"]),
-        learning_rate=bc_learning_rate("learning_rate", recipe["learning_rate"]),
+        learning_rate=rates["learning_rate"],
         num_envs=n,
         num_threads=num_threads,
         fit_threads=fit_threads,
         on_round=on_round,
         progress=progress if show_progress else None,
         phase_weights=weights,
-        dagger_learning_rate=rates[0],
-        final_learning_rate=rates[1],
+        dagger_learning_rate=rates.get("dagger_learning_rate"),
+        final_learning_rate=rates.get("final_learning_rate"),
     )
     run["env_steps"] = len(data)
     run["demonstration_episodes"] = data.num_episodes

@@ -34,6 +34,7 @@ from ..errors import ConfigError, InvalidArgumentError
 __all__ = [
     "ALGORITHMS",
     "BC_KEYS",
+    "BC_LEARNING_RATES",
     "BC_OPTIONAL_KEYS",
     "DEFAULT",
     "FINAL_CHOICES",
@@ -95,6 +96,8 @@ BC_KEYS = {
 #: rounds' fits and the final fit start from (without them, ``learning_rate``, as the first
 #: fit's; :func:`bc_learning_rate`).
 BC_OPTIONAL_KEYS = ("phase_weights", "dagger_learning_rate", "final_learning_rate")
+#: A bc recipe's learning rates, each checked by :func:`bc_learning_rate`.
+BC_LEARNING_RATES = ("learning_rate", "dagger_learning_rate", "final_learning_rate")
 #: A bc recipe with a ``student`` entry (DAgger of a policy that sees,
 #: :mod:`panda_rapier.learning.student`): its keys and their defaults.
 STUDENT_KEYS = {
@@ -185,7 +188,7 @@ def load_recipe(algo: str, env_id: str, conf: str | Path | None = None) -> dict[
             raise ConfigError(f"unknown bc recipe keys {sorted(unknown)}; known: {known}")
         if "phase_weights" in recipe:
             phase_weights(recipe["phase_weights"])
-        for key in ("learning_rate", "dagger_learning_rate", "final_learning_rate"):
+        for key in BC_LEARNING_RATES:
             if key in recipe:
                 bc_learning_rate(key, recipe[key])
         return {**keys, **recipe}
