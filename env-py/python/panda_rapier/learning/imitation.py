@@ -38,7 +38,7 @@ from ..errors import ConfigError, InvalidArgumentError
 from ..policy import ScriptedPolicy
 from ..sb3 import make_vec_env
 from .normalization import fit_normalizers
-from .recipes import BC_LEARNING_RATES, bc_learning_rate, evaluate_expression
+from .recipes import BC_LEARNING_RATES, bc_learning_rate, dagger_beta, evaluate_expression
 from .recipes import phase_weights as check_phase_weights
 from .rollouts import Demonstrations, RolloutStats, collect
 from .runs import Recorder, write_run
@@ -160,6 +160,7 @@ def dagger(
     on_round: Callable[[int, Demonstrations, RolloutStats | None, list[float]], None] | None = None,
     progress: Callable[[str, int, int], None] | None = None,
     phase_weights: Mapping[str, float] | None = None,
+    beta: float = 0.0,
 ) -> Demonstrations:
     """Behaviour cloning from ``demo_episodes`` expert episodes, then ``rounds`` of DAgger, each
     driving ``episodes_per_round`` episodes with the learner, labelling them with the expert and
@@ -176,7 +177,11 @@ def dagger(
     fit). ``phase_weights`` weigh each state's row in every fit by the expert's phase in it
     (:func:`phase_row_weights`; a recipe's ``phase_weights``, checked by
     :func:`~panda_rapier.learning.recipes.phase_weights`); every name must be a phase the
-    expert enters in its demonstrations. Returns all the data gathered."""
+    expert enters in its demonstrations. In round ``r`` the expert takes each of the learner's
+    steps with probability ``beta ** r`` (DAgger's mixed policy, its beta_i = p^i; a recipe's
+    ``dagger_beta``, :func:`~panda_rapier.learning.recipes.dagger_beta`): the early rounds,
+    when the learner is weakest, stay nearer the states the expert visits. ``0``: the learner
+    drives alone. Returns all the data gathered."""
     seed = first_seed
     weights: np.ndarray | None = None
     round_rate = learning_rate if dagger_learning_rate is None else dagger_learning_rate
@@ -226,6 +231,7 @@ def dagger(
             num_envs=num_envs,
             num_threads=num_threads,
             progress=tick(f"dagger round {r}", episodes_per_round),
+            expert_share=beta**r,
         )
         seed += episodes_per_round
         data.extend(new)
@@ -305,6 +311,9 @@ def train_bc(
             drove = "expert demonstrations"
         elif stats is None:
             drove = "final fit"
+        elif beta > 0.0:
+            drove = f"learner drove, the expert {beta**r:.3g} of its steps: success "
+            drove += f"{stats.success_rate:.3f}"
         else:
             drove = f"learner drove: success {stats.success_rate:.3f}"
             drove += f", placed {stats.placed_rate:.3f}"
@@ -320,6 +329,7 @@ def train_bc(
     weights = recipe.get("phase_weights")
     weights = check_phase_weights(weights) if weights is not None else None
     rates = {key: bc_learning_rate(key, recipe[key]) for key in BC_LEARNING_RATES if key in recipe}
+    beta = dagger_beta(recipe.get("dagger_beta", 0.0))
     data = dagger(
         model,
         config,
@@ -340,6 +350,7 @@ def train_bc(
         phase_weights=weights,
         dagger_learning_rate=rates.get("dagger_learning_rate"),
         final_learning_rate=rates.get("final_learning_rate"),
+        beta=beta,
     )
     run["env_steps"] = len(data)
     run["demonstration_episodes"] = data.num_episodes

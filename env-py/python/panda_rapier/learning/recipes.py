@@ -44,6 +44,7 @@ __all__ = [
     "VALIDATION_DEFAULTS",
     "algorithm_class",
     "bc_learning_rate",
+    "dagger_beta",
     "default_recipe_path",
     "evaluate_expression",
     "load_recipe",
@@ -94,8 +95,10 @@ BC_KEYS = {
 #: to the weight of their states in the cloning loss (others weigh 1; :func:`phase_weights`).
 #: ``dagger_learning_rate`` and ``final_learning_rate`` are the learning rates the DAgger
 #: rounds' fits and the final fit start from (without them, ``learning_rate``, as the first
-#: fit's; :func:`bc_learning_rate`).
-BC_OPTIONAL_KEYS = ("phase_weights", "dagger_learning_rate", "final_learning_rate")
+#: fit's; :func:`bc_learning_rate`). ``dagger_beta`` is p in DAgger's mixed policy: in round
+#: r the expert takes each of the learner's steps with probability p**r (without it, 0: the
+#: learner drives alone; :func:`dagger_beta`).
+BC_OPTIONAL_KEYS = ("phase_weights", "dagger_learning_rate", "final_learning_rate", "dagger_beta")
 #: A bc recipe's learning rates, each checked by :func:`bc_learning_rate`.
 BC_LEARNING_RATES = ("learning_rate", "dagger_learning_rate", "final_learning_rate")
 #: A bc recipe with a ``student`` entry (DAgger of a policy that sees,
@@ -191,6 +194,8 @@ def load_recipe(algo: str, env_id: str, conf: str | Path | None = None) -> dict[
         for key in BC_LEARNING_RATES:
             if key in recipe:
                 bc_learning_rate(key, recipe[key])
+        if "dagger_beta" in recipe:
+            dagger_beta(recipe["dagger_beta"])
         return {**keys, **recipe}
     return recipe
 
@@ -212,6 +217,23 @@ def bc_learning_rate(key: str, value: Any) -> float:
             f"recipe key {key!r} must be a finite number > 0, e.g. !!float 3e-4; got {value!r}"
         )
     return rate
+
+
+def dagger_beta(value: Any) -> float:
+    """A bc recipe's ``dagger_beta``, checked: a number in [0, 1). It is p in DAgger's mixed
+    policy (Ross et al., 2011, beta_i = p^i): in round r the expert takes each step of the
+    learner's rollouts with probability p**r, so the early rounds, when the learner is
+    weakest, gather states nearer the expert's. 0: the learner drives alone (DAgger as before
+    the key). Raises :class:`~panda_rapier.errors.ConfigError` naming the key."""
+    beta = math.nan
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        beta = float(value)
+    if not 0.0 <= beta < 1.0:  # NaN fails both
+        raise ConfigError(
+            "recipe key 'dagger_beta' must be a number in [0, 1) (in round r the expert takes "
+            f"each of the learner's steps with probability dagger_beta**r), e.g. 0.5; got {value!r}"
+        )
+    return beta
 
 
 def phase_weights(value: Any) -> dict[str, float]:

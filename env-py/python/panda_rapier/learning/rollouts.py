@@ -18,10 +18,39 @@ from typing import Any
 
 import numpy as np
 
+from .. import _common
 from ..agents.evaluation import evaluate
+from ..errors import InvalidArgumentError
 from ..policy import ScriptedPolicy
 
-__all__ = ["Demonstrations", "RolloutStats", "collect"]
+__all__ = ["Demonstrations", "RolloutStats", "collect", "expert_steps"]
+
+_MASK = (1 << 64) - 1
+
+
+def _mix(z: np.ndarray) -> np.ndarray:
+    """splitmix64's finaliser on every element (uint64 arithmetic wraps)."""
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
+
+
+def expert_steps(observations: np.ndarray, share: float, salt: int) -> np.ndarray:
+    """Which of the flat observation rows the expert acts in when it takes each step with
+    probability ``share`` (DAgger's mixed policy, :func:`collect`): a boolean per row, from a
+    hash of the row's float32 bits and ``salt``. The draw depends on nothing but the row and
+    ``salt``, so it is the same for any number of environments or threads, and a run repeats
+    bit for bit."""
+    rows = np.ascontiguousarray(observations, dtype=np.float32)
+    if rows.ndim != 2:
+        raise InvalidArgumentError(f"observations must be (n, d) rows, got shape {rows.shape}")
+    bits = rows.view(np.uint32).astype(np.uint64)
+    start = (int(salt) * 0x9E3779B97F4A7C15 + 0x632BE59BD9B4E019) & _MASK
+    h = _mix(np.full(rows.shape[0], start, dtype=np.uint64))
+    for column in bits.T:
+        h = _mix(h ^ column)
+    uniform = (h >> np.uint64(11)).astype(np.float64) * 2.0**-53
+    return uniform < share
 
 
 @dataclass
@@ -118,13 +147,38 @@ def collect(
     num_envs: int = 32,
     num_threads: int | None = None,
     progress: Callable[[int], None] | None = None,
+    expert_share: float = 0.0,
 ) -> tuple[Demonstrations, RolloutStats]:
     """Runs ``episodes`` seeded episodes (episode ``k`` reset with seed ``first_seed + k``) of
-    the environment ``config``, driven by ``actor`` (anything :func:`~.evaluation.evaluate`
-    takes: an SB3 model, or a function from flat observation rows to action rows; ``None``: the
-    scripted expert), and records every state visited with the expert's action in it. Returns
-    the dataset and how the driving policy did."""
+    the environment ``config``, driven by ``actor`` (an SB3 model, or a function from flat
+    observation rows to action rows; ``None``: the scripted expert), and records every state
+    visited with the expert's action in it. With ``expert_share`` > 0 the expert takes each of
+    the actor's steps with that probability (DAgger's mixed policy; which steps,
+    :func:`expert_steps`, salted with ``first_seed``). Returns the dataset and how the driving
+    policy (the mix, where there is one) did."""
+    share = float(expert_share)
+    if not 0.0 <= share <= 1.0:
+        raise InvalidArgumentError(f"expert_share must be in [0, 1], got {expert_share!r}")
     expert = ScriptedPolicy(config)._native
+    driver: Any = expert.act if actor is None else actor
+    if actor is not None and share > 0.0:
+        schema = _common.Schema.of(_common.config_json(dict(config)))
+        predict = getattr(actor, "predict", None)
+
+        def learner(flat: np.ndarray) -> np.ndarray:
+            if callable(predict):
+                actions, _ = predict(_common.split_observation(flat, schema), deterministic=True)
+            else:
+                actions = actor(flat)
+            return np.asarray(actions, dtype=np.float32).reshape(flat.shape[0], -1)
+
+        def driver(flat: np.ndarray) -> np.ndarray:
+            actions = learner(flat).copy()
+            take = expert_steps(flat, share, first_seed)
+            if take.any():
+                actions[take] = np.asarray(expert.act(flat), dtype=np.float32)[take]
+            return actions
+
     rows_obs: list[np.ndarray] = []
     rows_act: list[np.ndarray] = []
     rows_episode: list[np.ndarray] = []
@@ -137,7 +191,7 @@ def collect(
         rows_episode.append(np.array([r for r in running if r is not None], dtype=np.int64))
 
     report = evaluate(
-        expert.act if actor is None else actor,
+        driver,
         config,
         episodes,
         num_envs=num_envs,
