@@ -1,12 +1,12 @@
 #!/bin/sh
-# The runs of this record, one after the other, from the repository's root; PKG is the
+# The runs of this record, one after the other, run from the repository's root (runs/ and
+# .venv there; the recipes beside this script); PKG is the
 # package of the stop-76 tree (its Python files with the stop-75 native module). Only
 # validation (200 episodes on the validation seeds, in each run's evaluations.jsonl) is read
 # to compare recipes; a run is evaluated on the test seeds 0-999 only if it is a candidate
 # to ship.
 set -e
-cd "$(dirname "$0")/../../.."
-d=docs/training-runs/bc-beta-2026-11-30
+d=$(dirname "$0")
 for run in "joints SlideJoints 0" "slide Slide 1"; do
   set -- $run
   PYTHONPATH=$PKG .venv/bin/panda-rapier train --algo bc --env-id panda_rapier/$2-v0 \
