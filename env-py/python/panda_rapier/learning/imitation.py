@@ -39,8 +39,9 @@ from ..policy import ScriptedPolicy
 from ..sb3 import make_vec_env
 from .normalization import fit_normalizers
 from .recipes import BC_LEARNING_RATES, bc_learning_rate, dagger_beta, evaluate_expression
+from .recipes import phase_keep as check_phase_keep
 from .recipes import phase_weights as check_phase_weights
-from .rollouts import Demonstrations, RolloutStats, collect
+from .rollouts import Demonstrations, RolloutStats, collect, row_uniforms
 from .runs import Recorder, write_run
 from .threads import torch_threads
 
@@ -50,6 +51,7 @@ __all__ = [
     "behaviour_cloning",
     "collect",
     "dagger",
+    "phase_row_keep",
     "phase_row_weights",
     "train_bc",
 ]
@@ -139,6 +141,24 @@ def phase_row_weights(
     return weights, set(phases)
 
 
+#: The salt of :func:`phase_row_keep`'s draws (a row's draw is a function of the row alone).
+KEEP_SALT = 0x6B656570
+
+
+def phase_row_keep(
+    config: Mapping[str, Any], observations: np.ndarray, phase_keep: Mapping[str, float]
+) -> tuple[np.ndarray, set[str]]:
+    """Which flat observation rows the fits use: of the rows whose phase (the scripted expert
+    of ``config``'s, :meth:`~panda_rapier.ScriptedPolicy.phases`) ``phase_keep`` lists, each
+    is kept with that probability, drawn from the row itself
+    (:func:`~panda_rapier.learning.rollouts.row_uniforms`); rows of other phases are all
+    kept. A phase that fills most rows but asks little (Slide's wait above the sliding cube,
+    72 % of them) then costs the fits less time. Returns the mask and the set of phases seen."""
+    phases = ScriptedPolicy(config).phases(observations)
+    fractions = np.array([phase_keep.get(p, 1.0) for p in phases], dtype=np.float64)
+    return row_uniforms(observations, KEEP_SALT) < fractions, set(phases)
+
+
 def dagger(
     model: Any,
     config: Mapping[str, Any],
@@ -161,6 +181,7 @@ def dagger(
     progress: Callable[[str, int, int], None] | None = None,
     phase_weights: Mapping[str, float] | None = None,
     beta: float = 0.0,
+    phase_keep: Mapping[str, float] | None = None,
 ) -> Demonstrations:
     """Behaviour cloning from ``demo_episodes`` expert episodes, then ``rounds`` of DAgger, each
     driving ``episodes_per_round`` episodes with the learner, labelling them with the expert and
@@ -181,7 +202,10 @@ def dagger(
     steps with probability ``beta ** r`` (DAgger's mixed policy, its beta_i = p^i; a recipe's
     ``dagger_beta``, :func:`~panda_rapier.learning.recipes.dagger_beta`): the early rounds,
     when the learner is weakest, stay nearer the states the expert visits. ``0``: the learner
-    drives alone. Returns all the data gathered."""
+    drives alone. ``phase_keep`` thins the rows every fit uses by the expert's phase in them
+    (:func:`phase_row_keep`; a recipe's ``phase_keep``, checked by
+    :func:`~panda_rapier.learning.recipes.phase_keep`); every name must be a phase the expert
+    enters in its demonstrations. Returns all the data gathered, every row."""
     seed = first_seed
     weights: np.ndarray | None = None
     round_rate = learning_rate if dagger_learning_rate is None else dagger_learning_rate
@@ -201,24 +225,31 @@ def dagger(
         progress=tick("demonstrations", demo_episodes),
     )
     seed += demo_episodes
+    keep: np.ndarray | None = None
     if phase_weights:
         weights, seen = phase_row_weights(config, data.observations, phase_weights)
-        missing = sorted(set(phase_weights) - seen)
-        if missing:
-            raise ConfigError(
-                f"recipe key 'phase_weights' names {missing}, which the expert never enters in "
-                f"its {demo_episodes} demonstrations; its phases there: {sorted(seen)}"
-            )
+        _check_phases("phase_weights", phase_weights, seen, demo_episodes)
+    if phase_keep:
+        keep, seen = phase_row_keep(config, data.observations, phase_keep)
+        _check_phases("phase_keep", phase_keep, seen, demo_episodes)
+
+    def fitted() -> tuple[Demonstrations, np.ndarray | None]:
+        """The rows the next fit uses, and their weights."""
+        if keep is None:
+            return data, weights
+        return data.rows(keep), None if weights is None else weights[keep]
+
     fit_normalizers(model.policy, data.observations)
+    rows, row_weights = fitted()
     with torch_threads(fit_threads):
         losses = behaviour_cloning(
             model,
-            data,
+            rows,
             epochs=epochs,
             batch_size=batch_size,
             learning_rate=learning_rate,
             seed=0,
-            weights=weights,
+            weights=row_weights,
         )
     if on_round is not None:
         on_round(0, data, None, losses)
@@ -238,32 +269,47 @@ def dagger(
         if weights is not None and phase_weights:
             more, _ = phase_row_weights(config, new.observations, phase_weights)
             weights = np.concatenate([weights, more])
+        if keep is not None and phase_keep:
+            kept, _ = phase_row_keep(config, new.observations, phase_keep)
+            keep = np.concatenate([keep, kept])
+        rows, row_weights = fitted()
         with torch_threads(fit_threads):
             losses = behaviour_cloning(
                 model,
-                data,
+                rows,
                 epochs=epochs_per_round,
                 batch_size=batch_size,
                 learning_rate=round_rate,
                 seed=r,
-                weights=weights,
+                weights=row_weights,
             )
         if on_round is not None:
             on_round(r, data, stats, losses)
     if final_epochs > 0:
+        rows, row_weights = fitted()
         with torch_threads(fit_threads):
             losses = behaviour_cloning(
                 model,
-                data,
+                rows,
                 epochs=final_epochs,
                 batch_size=batch_size,
                 learning_rate=final_rate,
                 seed=rounds + 1,
-                weights=weights,
+                weights=row_weights,
             )
         if on_round is not None:
             on_round(rounds + 1, data, None, losses)
     return data
+
+
+def _check_phases(key: str, named: Mapping[str, float], seen: set[str], episodes: int) -> None:
+    """Refuses a recipe key that names phases the expert never entered in its demonstrations."""
+    missing = sorted(set(named) - seen)
+    if missing:
+        raise ConfigError(
+            f"recipe key {key!r} names {missing}, which the expert never enters in its "
+            f"{episodes} demonstrations; its phases there: {sorted(seen)}"
+        )
 
 
 def train_bc(
@@ -330,6 +376,8 @@ def train_bc(
     weights = check_phase_weights(weights) if weights is not None else None
     rates = {key: bc_learning_rate(key, recipe[key]) for key in BC_LEARNING_RATES if key in recipe}
     beta = dagger_beta(recipe.get("dagger_beta", 0.0))
+    keep = recipe.get("phase_keep")
+    keep = check_phase_keep(keep) if keep is not None else None
     data = dagger(
         model,
         config,
@@ -351,6 +399,7 @@ def train_bc(
         dagger_learning_rate=rates.get("dagger_learning_rate"),
         final_learning_rate=rates.get("final_learning_rate"),
         beta=beta,
+        phase_keep=keep,
     )
     run["env_steps"] = len(data)
     run["demonstration_episodes"] = data.num_episodes

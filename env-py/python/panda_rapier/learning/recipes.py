@@ -50,6 +50,7 @@ __all__ = [
     "load_recipe",
     "model_kwargs",
     "normalize_settings",
+    "phase_keep",
     "phase_weights",
     "recipe_callbacks",
     "recipe_ids",
@@ -97,8 +98,15 @@ BC_KEYS = {
 #: rounds' fits and the final fit start from (without them, ``learning_rate``, as the first
 #: fit's; :func:`bc_learning_rate`). ``dagger_beta`` is p in DAgger's mixed policy: in round
 #: r the expert takes each of the learner's steps with probability p**r (without it, 0: the
-#: learner drives alone; :func:`dagger_beta`).
-BC_OPTIONAL_KEYS = ("phase_weights", "dagger_learning_rate", "final_learning_rate", "dagger_beta")
+#: learner drives alone; :func:`dagger_beta`). ``phase_keep`` maps phases to the fraction of
+#: their rows the fits use (others: all; :func:`phase_keep`).
+BC_OPTIONAL_KEYS = (
+    "phase_weights",
+    "dagger_learning_rate",
+    "final_learning_rate",
+    "dagger_beta",
+    "phase_keep",
+)
 #: A bc recipe's learning rates, each checked by :func:`bc_learning_rate`.
 BC_LEARNING_RATES = ("learning_rate", "dagger_learning_rate", "final_learning_rate")
 #: A bc recipe with a ``student`` entry (DAgger of a policy that sees,
@@ -196,6 +204,8 @@ def load_recipe(algo: str, env_id: str, conf: str | Path | None = None) -> dict[
                 bc_learning_rate(key, recipe[key])
         if "dagger_beta" in recipe:
             dagger_beta(recipe["dagger_beta"])
+        if "phase_keep" in recipe:
+            phase_keep(recipe["phase_keep"])
         return {**keys, **recipe}
     return recipe
 
@@ -234,6 +244,32 @@ def dagger_beta(value: Any) -> float:
             f"each of the learner's steps with probability dagger_beta**r), e.g. 0.5; got {value!r}"
         )
     return beta
+
+
+def phase_keep(value: Any) -> dict[str, float]:
+    """A bc recipe's ``phase_keep``, checked: a mapping from the scripted expert's phase names
+    to fractions in (0, 1]. Of the states the expert labels with a listed phase, each fit uses
+    that fraction (the same rows in every fit, drawn from the rows themselves), the others
+    all: a phase that fills most rows but asks little (Slide's wait, 72 % of them) then
+    costs the fits less time. Raises :class:`~panda_rapier.errors.ConfigError` naming the
+    key."""
+    if not isinstance(value, Mapping) or not value:
+        raise ConfigError(
+            "recipe key 'phase_keep' must map the expert's phase names to the fraction of their "
+            f"rows the fits use, e.g. {{wait: 0.2}}; got {value!r}"
+        )
+    fractions: dict[str, float] = {}
+    for name, fraction in value.items():
+        if not isinstance(name, str) or not name:
+            raise ConfigError(f"recipe key 'phase_keep' needs phase names as keys; got {name!r}")
+        ok = isinstance(fraction, (int, float)) and not isinstance(fraction, bool)
+        if not ok or not 0.0 < float(fraction) <= 1.0:  # NaN fails
+            raise ConfigError(
+                f"recipe key 'phase_keep': the fraction of phase {name!r} must be a number in "
+                f"(0, 1]; got {fraction!r}"
+            )
+        fractions[name] = float(fraction)
+    return fractions
 
 
 def phase_weights(value: Any) -> dict[str, float]:

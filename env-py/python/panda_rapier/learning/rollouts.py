@@ -23,7 +23,7 @@ from ..agents.evaluation import evaluate
 from ..errors import InvalidArgumentError
 from ..policy import ScriptedPolicy
 
-__all__ = ["Demonstrations", "RolloutStats", "collect", "expert_steps"]
+__all__ = ["Demonstrations", "RolloutStats", "collect", "expert_steps", "row_uniforms"]
 
 _MASK = (1 << 64) - 1
 
@@ -35,12 +35,11 @@ def _mix(z: np.ndarray) -> np.ndarray:
     return z ^ (z >> np.uint64(31))
 
 
-def expert_steps(observations: np.ndarray, share: float, salt: int) -> np.ndarray:
-    """Which of the flat observation rows the expert acts in when it takes each step with
-    probability ``share`` (DAgger's mixed policy, :func:`collect`): a boolean per row, from a
-    hash of the row's float32 bits and ``salt``. The draw depends on nothing but the row and
-    ``salt``, so it is the same for any number of environments or threads, and a run repeats
-    bit for bit."""
+def row_uniforms(observations: np.ndarray, salt: int) -> np.ndarray:
+    """One number in [0, 1) per flat observation row, from a hash of the row's float32 bits and
+    ``salt`` (splitmix64 over its words): random-looking, but a function of the row alone, so
+    a choice made with it is the same for any batching of the rows, any number of
+    environments or threads, and a run repeats bit for bit."""
     rows = np.ascontiguousarray(observations, dtype=np.float32)
     if rows.ndim != 2:
         raise InvalidArgumentError(f"observations must be (n, d) rows, got shape {rows.shape}")
@@ -49,8 +48,14 @@ def expert_steps(observations: np.ndarray, share: float, salt: int) -> np.ndarra
     h = _mix(np.full(rows.shape[0], start, dtype=np.uint64))
     for column in bits.T:
         h = _mix(h ^ column)
-    uniform = (h >> np.uint64(11)).astype(np.float64) * 2.0**-53
-    return uniform < share
+    return (h >> np.uint64(11)).astype(np.float64) * 2.0**-53
+
+
+def expert_steps(observations: np.ndarray, share: float, salt: int) -> np.ndarray:
+    """Which of the flat observation rows the expert acts in when it takes each step with
+    probability ``share`` (DAgger's mixed policy, :func:`collect`): a boolean per row,
+    :func:`row_uniforms` below ``share``."""
+    return row_uniforms(observations, salt) < share
 
 
 @dataclass
@@ -109,6 +114,24 @@ class Demonstrations:
         self.episode_seeds += other.episode_seeds
         self.episode_success += other.episode_success
         self.episode_placed += other.episode_placed
+
+    def rows(self, mask: np.ndarray) -> Demonstrations:
+        """The rows where ``mask`` (one boolean per row) is true, as a dataset of their own (the
+        episode lists, which rows refer to by index, whole)."""
+        mask = np.asarray(mask, dtype=bool)
+        if mask.shape != (len(self),):
+            raise InvalidArgumentError(
+                f"mask must be {len(self)} booleans, one per row; got shape {mask.shape}"
+            )
+        return Demonstrations(
+            config=self.config,
+            observations=self.observations[mask],
+            actions=self.actions[mask],
+            episode_index=self.episode_index[mask],
+            episode_seeds=list(self.episode_seeds),
+            episode_success=list(self.episode_success),
+            episode_placed=list(self.episode_placed),
+        )
 
     def save(self, path: str | Path) -> None:
         """Writes the dataset as a compressed ``.npz`` (the configuration as JSON inside)."""
