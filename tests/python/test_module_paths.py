@@ -15,7 +15,15 @@ from typing import Any
 import pytest
 
 import panda_rapier
-from panda_rapier._deprecated import MOVED, REMOVED_IN, current_name, quiet_moved, same_class
+from panda_rapier._deprecated import (
+    MOVED,
+    REMOVED_IN,
+    current_imports,
+    current_name,
+    current_paths,
+    quiet_moved,
+    same_class,
+)
 from panda_rapier.errors import ConfigError
 from panda_rapier.learning.recipes import (
     ALGORITHMS,
@@ -100,6 +108,34 @@ def test_quiet_moved_silences_only_the_alias_warnings() -> None:
                 warnings.warn("other", FutureWarning, stacklevel=1)
 
 
+def test_recipes_naming_old_module_paths_train_alike() -> None:
+    """A recipe of 0.1 names NormalizedFlatten and its callbacks by their old modules; it
+    trains as the package's recipe that names the new ones (so models-table finds the
+    package's recipe for the PPO models trained then)."""
+    from panda_rapier.learning.recipes import recipes_train_alike
+
+    old = "__import__('panda_rapier.normalization').normalization.NormalizedFlatten"
+    assert current_imports(f"dict(features_extractor_class={old})") == (
+        f"dict(features_extractor_class={NEW_IMPORT}NormalizedFlatten)"
+    )
+    assert current_imports("nn.ReLU") == "nn.ReLU"
+    recipe = load_recipe("ppo", "panda_rapier/LiftDense-v0")
+    assert NEW_IMPORT in recipe["policy_kwargs"]
+    before = {**recipe, "policy_kwargs": recipe["policy_kwargs"].replace(NEW_IMPORT, old[:-17])}
+    assert before != recipe and recipes_train_alike(before, recipe)
+    # Callbacks named by their old modules, as the shipped PPO models' run records have them.
+    callbacks = ["panda_rapier.normalization.FitNormalizerCallback",
+                 {"panda_rapier.exploration.MinActionStd": {"min_std": 0.3}}]  # fmt: skip
+    assert current_paths(callbacks) == [
+        "panda_rapier.learning.normalization.FitNormalizerCallback",
+        {"panda_rapier.learning.exploration.MinActionStd": {"min_std": 0.3}},
+    ]
+    assert recipes_train_alike(
+        {**before, "callback": callbacks}, {**recipe, "callback": current_paths(callbacks)}
+    )
+    assert not recipes_train_alike({**before, "n_steps": 1}, recipe)
+
+
 def test_class_names_compare_across_old_and_new_paths() -> None:
     assert current_name("panda_rapier.ppo.PPO") == "panda_rapier.learning.ppo.PPO"
     assert current_name("stable_baselines3.ppo.ppo.PPO") == "stable_baselines3.ppo.ppo.PPO"
@@ -123,18 +159,6 @@ def test_seed_plan_is_read_from_one_module() -> None:
     assert top <= seeds.DEMOS_FIRST_SEED
 
 
-def _current(value: Any) -> Any:
-    """``value`` with the old class paths of 0.1 in its strings and keys made the new ones."""
-    if isinstance(value, dict):
-        return {current_name(str(k)): _current(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_current(v) for v in value]
-    if isinstance(value, str):
-        old, new = "panda_rapier.normalization')" + ".normalization.", NEW_IMPORT
-        return current_name(value.replace(f"__import__('{old}", new))
-    return value
-
-
 @pytest.mark.parametrize("algo", ALGORITHMS)
 def test_every_id_loads_the_recipe_it_had_before_the_layout_changed(algo: str) -> None:
     """Pinned from the recipe files of 0.1 (bc.yml then listed all 28 ids, now its default
@@ -152,7 +176,7 @@ def test_every_id_loads_the_recipe_it_had_before_the_layout_changed(algo: str) -
             }
         except ConfigError:
             now = None
-        assert json.loads(json.dumps(now)) == _current(before[f"{algo} {env_id}"]), env_id
+        assert json.loads(json.dumps(now)) == current_paths(before[f"{algo} {env_id}"]), env_id
 
 
 def test_a_recipe_file_default_serves_every_id_it_does_not_list(tmp_path: Path) -> None:

@@ -17,11 +17,22 @@ from __future__ import annotations
 import importlib
 import sys
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from types import ModuleType
+from typing import Any
 
-__all__ = ["MOVED", "REMOVED_IN", "alias", "current_name", "quiet_moved", "same_class", "warn"]
+__all__ = [
+    "MOVED",
+    "REMOVED_IN",
+    "alias",
+    "current_imports",
+    "current_name",
+    "current_paths",
+    "quiet_moved",
+    "same_class",
+    "warn",
+]
 
 #: The version that removes the old paths.
 REMOVED_IN = "0.4.0"
@@ -95,6 +106,31 @@ def current_name(path: str) -> str:
     if module in MOVED and module != "panda_rapier.training":
         return f"{MOVED[module]}.{name}"
     return path
+
+
+def current_imports(text: str) -> str:
+    """A recipe's expression (a ``policy_kwargs`` string) with every old module it imports by
+    name, ``__import__('panda_rapier.normalization').normalization.``, made its new one,
+    ``__import__('panda_rapier.learning.normalization').learning.normalization.``: the
+    two name the same class, so recipes that differ only so train alike."""
+    for old, new in MOVED.items():
+        before = f"__import__('{old}'){old.removeprefix('panda_rapier')}."
+        text = text.replace(before, f"__import__('{new}'){new.removeprefix('panda_rapier')}.")
+    return text
+
+
+def current_paths(value: Any) -> Any:
+    """``value`` (a recipe's entry: strings, lists and mappings of them) with every old module
+    path in it made its new one: dotted class names (:func:`current_name`; a callback
+    ``panda_rapier.normalization.FitNormalizerCallback``), mapping keys likewise, and modules
+    imported by name in expressions (:func:`current_imports`)."""
+    if isinstance(value, Mapping):
+        return {current_name(str(k)): current_paths(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [current_paths(v) for v in value]
+    if isinstance(value, str):
+        return current_name(current_imports(value))
+    return value
 
 
 def same_class(first: str, second: str) -> bool:

@@ -28,7 +28,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from .._deprecated import quiet_moved
+from .._deprecated import current_paths, quiet_moved
 from ..errors import ConfigError, InvalidArgumentError
 
 __all__ = [
@@ -381,10 +381,13 @@ def recipe_normalization(recipe: Mapping[str, Any]) -> dict[str, Any] | None:
 
 def recipes_train_alike(first: Mapping[str, Any], second: Mapping[str, Any]) -> bool:
     """Whether ``panda-rapier train`` trains the same way with either recipe: equal but for
-    the keys only rl-zoo3 reads (``monitor_kwargs``)."""
+    the keys only rl-zoo3 reads (``monitor_kwargs``), and for old module paths that name the
+    same classes as the new ones (a recipe of 0.1 names
+    ``panda_rapier.normalization.FitNormalizerCallback``;
+    :func:`~panda_rapier._deprecated.current_paths`)."""
 
     def used(recipe: Mapping[str, Any]) -> dict[str, Any]:
-        return {k: v for k, v in recipe.items() if k not in _ZOO_ONLY_KEYS}
+        return {k: current_paths(v) for k, v in recipe.items() if k not in _ZOO_ONLY_KEYS}
 
     return used(first) == used(second)
 
