@@ -475,7 +475,7 @@ def _reproducing_command(run: dict[str, Any], recipes: Path) -> tuple[list[str],
     changed since), or the ``--conf`` file the command named if it is still there; without
     one, a caveat says where the run's recipe is recorded."""
 
-    command = [str(part) for part in run["command"]]
+    command = _portable([str(part) for part in run["command"]])
     if "recipe" not in run:
         return command, ""
 
@@ -542,6 +542,16 @@ def _saved_as(run: dict[str, Any]) -> str:
     """Which file of its run directory a model is: ``best.zip`` (the best periodic
     evaluation's, whose record holds that evaluation) or ``model.zip``."""
     return "best.zip" if "evaluation" in run else "model.zip"
+
+
+def _portable(command: list[str]) -> list[str]:
+    """A recorded command with an absolute ``--out`` (the training machine's path) made
+    ``runs/NAME``, as a reader in a clone of the repository would run it."""
+    if "--out" in command[:-1]:
+        at = command.index("--out") + 1
+        if Path(command[at]).is_absolute():
+            command[at] = f"runs/{Path(command[at]).name}"
+    return command
 
 
 def _out_of(command: Sequence[str]) -> str:
