@@ -109,11 +109,12 @@ def _assert_row_shows(label: str, recorded: dict[str, Any], table: str) -> None:
     assert any(row.endswith(wanted) for row in rows), (label, rows)
 
 
-#: Episodes per baseline row the reproduction test runs: 28 rows (random and scripted, 14 ids),
-#: so 100 each took 100 s, the suite's second-slowest test (stop 72); the random and scripted
-#: policies need no torch, so their episodes repeat exactly wherever the physics does. Fewer
-#: when PANDA_RAPIER_REPRODUCTION_EPISODES says so (`scripts/test`'s masked-maths pass).
-BASELINE_EPISODES = min(50, REPRODUCTION_EPISODES)
+#: Episodes per baseline row the reproduction test runs: one on each of the evaluation's 32
+#: environments. The random and scripted policies need no torch, so their episodes repeat
+#: exactly wherever the physics does. 100 each took 100 s (stop 72); 50, two rounds of the 32
+#: environments, took 79 s on a fresh clone on 2026-11-30, still the suite's slowest test.
+#: Fewer when PANDA_RAPIER_REPRODUCTION_EPISODES says so.
+BASELINE_EPISODES = min(32, REPRODUCTION_EPISODES)
 
 
 def test_benchmark_baselines_reproduce_their_recorded_evaluations() -> None:
