@@ -6,7 +6,9 @@ import base64
 import json
 import pickle
 import zipfile
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -53,3 +55,57 @@ def poisoned(source: Path, hostile: Path, payload: str) -> Path:
                 raw = json.dumps(data).encode()
             out.writestr(item, raw)
     return hostile
+
+
+#: The id the bc recipe files of :func:`bc_recipe` list.
+BC_RECIPE_ID = "panda_rapier/Slide-v0"
+
+
+@pytest.fixture
+def bc_recipe(tmp_path: Path) -> Callable[[dict[str, Any]], Path]:
+    """Writes a bc recipe file whose only entry, ``BC_RECIPE_ID``'s, is the given mapping, and
+    returns its path."""
+    yaml = pytest.importorskip("yaml")
+
+    def write(entry: dict[str, Any]) -> Path:
+        path = tmp_path / "bc.yml"
+        path.write_text(yaml.safe_dump({BC_RECIPE_ID: entry}))
+        return path
+
+    return write
+
+
+@pytest.fixture
+def dagger_arguments(
+    bc_recipe: Callable[[dict[str, Any]], Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> Callable[[dict[str, Any]], dict[str, Any]]:
+    """The keyword arguments ``panda-rapier train --algo bc`` (``train_bc``) hands ``dagger``
+    for a recipe entry (loaded and checked as ``load_recipe`` does), without training."""
+    pytest.importorskip("stable_baselines3")
+    from panda_rapier.learning import imitation
+    from panda_rapier.learning.recipes import load_recipe
+    from panda_rapier.registration import env_config
+
+    seen: dict[str, Any] = {}
+
+    class Stop(Exception):
+        pass
+
+    def dagger(model: Any, config: Any, **kwargs: Any) -> None:
+        seen.update(kwargs)
+        raise Stop
+
+    monkeypatch.setattr(imitation, "dagger", dagger)
+
+    def arguments(entry: dict[str, Any]) -> dict[str, Any]:
+        recipe = load_recipe("bc", BC_RECIPE_ID, bc_recipe(entry))
+        run = {"env_id": BC_RECIPE_ID, "env_kwargs": {}, "seed": 0, "train_first_seed": 0}
+        seen.clear()
+        with pytest.raises(Stop):
+            imitation.train_bc(
+                run, recipe, env_config(BC_RECIPE_ID), tmp_path / "out", 2, 1, 0,
+                lambda _: None, show_progress=False,
+            )  # fmt: skip
+        return dict(seen)
+
+    return arguments

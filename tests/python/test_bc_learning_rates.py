@@ -29,17 +29,11 @@ REACH = "panda_rapier/Reach-v0"
 SLIDE = "panda_rapier/Slide-v0"
 
 
-def _recipe(tmp_path: Path, entry: dict[str, Any]) -> Path:
-    path = tmp_path / "bc.yml"
-    path.write_text(yaml.safe_dump({SLIDE: entry}))
-    return path
-
-
-def test_a_recipe_without_the_keys_loads_as_before(tmp_path: Path) -> None:
-    recipe = load_recipe("bc", SLIDE, _recipe(tmp_path, {"epochs": 3}))
+def test_a_recipe_without_the_keys_loads_as_before(bc_recipe: Any) -> None:
+    recipe = load_recipe("bc", SLIDE, bc_recipe({"epochs": 3}))
     assert set(recipe) == set(BC_KEYS)
     rates = {"dagger_learning_rate": 3e-4, "final_learning_rate": 1e-4}
-    recipe = load_recipe("bc", SLIDE, _recipe(tmp_path, rates))
+    recipe = load_recipe("bc", SLIDE, bc_recipe(rates))
     assert recipe["dagger_learning_rate"] == 3e-4 and recipe["final_learning_rate"] == 1e-4
     assert recipe["learning_rate"] == BC_KEYS["learning_rate"]
 
@@ -56,9 +50,9 @@ def test_yaml_numbers_read_as_strings_are_numbers(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("key", ["learning_rate", "dagger_learning_rate", "final_learning_rate"])
 @pytest.mark.parametrize("value", [0, -1e-3, math.nan, math.inf, True, "fast", None, [1e-3]])
-def test_bad_learning_rates_name_the_key(tmp_path: Path, key: str, value: object) -> None:
+def test_bad_learning_rates_name_the_key(bc_recipe: Any, key: str, value: object) -> None:
     with pytest.raises(ConfigError, match=f"'{key}' must be a finite number > 0"):
-        load_recipe("bc", SLIDE, _recipe(tmp_path, {key: value}))
+        load_recipe("bc", SLIDE, bc_recipe({key: value}))
 
 
 def test_each_fit_starts_from_its_learning_rate(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -94,25 +88,8 @@ def test_each_fit_starts_from_its_learning_rate(monkeypatch: pytest.MonkeyPatch)
     assert calls == [1e-3, 3e-4, 3e-4, 1e-4]
 
 
-def test_train_passes_the_recipe_rates_on(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_train_passes_the_recipe_rates_on(dagger_arguments: Any) -> None:
     """``panda-rapier train --algo bc`` hands the recipe's rates to :func:`dagger`."""
-    seen: dict[str, Any] = {}
-
-    class Stop(Exception):
-        pass
-
-    def dagger(model: Any, config: Any, **kwargs: Any) -> None:
-        seen.update(kwargs)
-        raise Stop
-
-    monkeypatch.setattr(imitation, "dagger", dagger)
-    recipe = load_recipe(
-        "bc", SLIDE, _recipe(tmp_path, {"learning_rate": "2e-3", "final_learning_rate": 1e-4})
-    )
-    run = {"env_id": REACH, "env_kwargs": {}, "seed": 0, "train_first_seed": 0}
-    with pytest.raises(Stop):
-        imitation.train_bc(
-            run, recipe, env_config(REACH), tmp_path / "out", 2, 1, 0, print, show_progress=False
-        )
+    seen = dagger_arguments({"learning_rate": "2e-3", "final_learning_rate": 1e-4})
     assert seen["learning_rate"] == 2e-3
     assert seen["dagger_learning_rate"] is None and seen["final_learning_rate"] == 1e-4

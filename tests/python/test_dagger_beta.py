@@ -6,7 +6,6 @@ drives alone, as before."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -31,27 +30,21 @@ PUSH = "panda_rapier/Push-v0"
 SLIDE = "panda_rapier/Slide-v0"
 
 
-def _recipe(tmp_path: Path, entry: dict[str, Any]) -> Path:
-    path = tmp_path / "bc.yml"
-    path.write_text(yaml.safe_dump({SLIDE: entry}))
-    return path
-
-
 def _still(flat: np.ndarray) -> np.ndarray:
     """A learner that never moves."""
     return np.zeros((flat.shape[0], 4), dtype=np.float32)
 
 
-def test_a_recipe_without_the_key_loads_as_before(tmp_path: Path) -> None:
-    assert set(load_recipe("bc", SLIDE, _recipe(tmp_path, {"epochs": 3}))) == set(BC_KEYS)
-    assert load_recipe("bc", SLIDE, _recipe(tmp_path, {"dagger_beta": 0.5}))["dagger_beta"] == 0.5
+def test_a_recipe_without_the_key_loads_as_before(bc_recipe: Any) -> None:
+    assert set(load_recipe("bc", SLIDE, bc_recipe({"epochs": 3}))) == set(BC_KEYS)
+    assert load_recipe("bc", SLIDE, bc_recipe({"dagger_beta": 0.5}))["dagger_beta"] == 0.5
     assert dagger_beta(0) == 0.0
 
 
 @pytest.mark.parametrize("value", [1, 1.5, -0.1, math.nan, math.inf, True, "0.5", None, [0.5]])
-def test_bad_betas_name_the_key(tmp_path: Path, value: object) -> None:
+def test_bad_betas_name_the_key(bc_recipe: Any, value: object) -> None:
     with pytest.raises(ConfigError, match=r"'dagger_beta' must be a number in \[0, 1\)"):
-        load_recipe("bc", SLIDE, _recipe(tmp_path, {"dagger_beta": value}))
+        load_recipe("bc", SLIDE, bc_recipe({"dagger_beta": value}))
 
 
 def test_expert_steps_depend_on_the_row_and_the_salt_only() -> None:
@@ -127,22 +120,6 @@ def test_each_round_gives_the_expert_beta_to_the_power_of_the_round(
     assert shares == [0.5, 0.25, 0.125]
 
 
-def test_train_passes_the_recipe_beta_on(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    seen: dict[str, Any] = {}
-
-    class Stop(Exception):
-        pass
-
-    def dagger(model: Any, config: Any, **kwargs: Any) -> None:
-        seen.update(kwargs)
-        raise Stop
-
-    monkeypatch.setattr(imitation, "dagger", dagger)
-    run = {"env_id": PUSH, "env_kwargs": {}, "seed": 0, "train_first_seed": 0}
-    for entry, beta in (({}, 0.0), ({"dagger_beta": 0.6}, 0.6)):
-        recipe = load_recipe("bc", SLIDE, _recipe(tmp_path, entry))
-        with pytest.raises(Stop):
-            imitation.train_bc(
-                run, recipe, env_config(PUSH), tmp_path / "out", 2, 1, 0, print, show_progress=False
-            )
-        assert seen["beta"] == beta
+def test_train_passes_the_recipe_beta_on(dagger_arguments: Any) -> None:
+    assert dagger_arguments({})["beta"] == 0.0
+    assert dagger_arguments({"dagger_beta": 0.6})["beta"] == 0.6

@@ -6,7 +6,6 @@ every row is fitted, as before."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -31,12 +30,6 @@ th.set_num_threads(1)
 SLIDE = "panda_rapier/Slide-v0"
 
 
-def _recipe(tmp_path: Path, entry: dict[str, Any]) -> Path:
-    path = tmp_path / "bc.yml"
-    path.write_text(yaml.safe_dump({SLIDE: entry}))
-    return path
-
-
 def _model() -> PPO:
     return PPO(
         "MultiInputPolicy",
@@ -53,9 +46,9 @@ def slide_rows() -> Any:
     return data
 
 
-def test_a_recipe_without_the_key_loads_as_before(tmp_path: Path) -> None:
-    assert set(load_recipe("bc", SLIDE, _recipe(tmp_path, {"epochs": 3}))) == set(BC_KEYS)
-    recipe = load_recipe("bc", SLIDE, _recipe(tmp_path, {"phase_keep": {"wait": 0.25}}))
+def test_a_recipe_without_the_key_loads_as_before(bc_recipe: Any) -> None:
+    assert set(load_recipe("bc", SLIDE, bc_recipe({"epochs": 3}))) == set(BC_KEYS)
+    recipe = load_recipe("bc", SLIDE, bc_recipe({"phase_keep": {"wait": 0.25}}))
     assert recipe["phase_keep"] == {"wait": 0.25}
     assert phase_keep({"wait": 1}) == {"wait": 1.0}
 
@@ -65,9 +58,9 @@ def test_a_recipe_without_the_key_loads_as_before(tmp_path: Path) -> None:
     [{}, [0.5], 0.5, None, {"wait": 0}, {"wait": 1.5}, {"wait": -0.1}, {"wait": math.nan},
      {"wait": True}, {"wait": "half"}, {3: 0.5}],
 )  # fmt: skip
-def test_bad_values_name_the_key(tmp_path: Path, value: object) -> None:
+def test_bad_values_name_the_key(bc_recipe: Any, value: object) -> None:
     with pytest.raises(ConfigError, match="'phase_keep'"):
-        load_recipe("bc", SLIDE, _recipe(tmp_path, {"phase_keep": value}))
+        load_recipe("bc", SLIDE, bc_recipe({"phase_keep": value}))
 
 
 def test_rows_of_a_listed_phase_are_thinned_by_the_row_alone(slide_rows: Any) -> None:
@@ -131,30 +124,6 @@ def test_every_fit_uses_the_kept_rows_and_their_weights(monkeypatch: pytest.Monk
         imitation.dagger(_model(), env_config(SLIDE), phase_keep={"wiat": 0.5}, **short)
 
 
-def test_train_passes_the_recipe_key_on(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    seen: dict[str, Any] = {}
-
-    class Stop(Exception):
-        pass
-
-    def dagger(model: Any, config: Any, **kwargs: Any) -> None:
-        seen.update(kwargs)
-        raise Stop
-
-    monkeypatch.setattr(imitation, "dagger", dagger)
-    run = {"env_id": SLIDE, "env_kwargs": {}, "seed": 0, "train_first_seed": 0}
-    for entry, keep in (({}, None), ({"phase_keep": {"wait": 0.5}}, {"wait": 0.5})):
-        recipe = load_recipe("bc", SLIDE, _recipe(tmp_path, entry))
-        with pytest.raises(Stop):
-            imitation.train_bc(
-                run,
-                recipe,
-                env_config(SLIDE),
-                tmp_path / "out",
-                2,
-                1,
-                0,
-                print,
-                show_progress=False,
-            )
-        assert seen["phase_keep"] == keep
+def test_train_passes_the_recipe_key_on(dagger_arguments: Any) -> None:
+    assert dagger_arguments({})["phase_keep"] is None
+    assert dagger_arguments({"phase_keep": {"wait": 0.5}})["phase_keep"] == {"wait": 0.5}

@@ -23,7 +23,7 @@ from __future__ import annotations
 import importlib
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -246,6 +246,32 @@ def dagger_beta(value: Any) -> float:
     return beta
 
 
+def _phase_map(
+    key: str, value: Any, ok: Callable[[float], bool], texts: tuple[str, str, str, str]
+) -> dict[str, float]:
+    """A bc recipe's mapping ``key`` from the scripted expert's phase names to numbers, each
+    ``ok``: checked, as floats. ``texts`` word the
+    :class:`~panda_rapier.errors.ConfigError` that names the key: what the numbers are
+    (``weights``), what one is (``the weight``), what it must be, and an example mapping."""
+    values, what, expects, example = texts
+    if not isinstance(value, Mapping) or not value:
+        raise ConfigError(
+            f"recipe key {key!r} must map the expert's phase names to {values}, e.g. {example}; "
+            f"got {value!r}"
+        )
+    numbers: dict[str, float] = {}
+    for name, number in value.items():
+        if not isinstance(name, str) or not name:
+            raise ConfigError(f"recipe key {key!r} needs phase names as keys; got {name!r}")
+        valid = isinstance(number, (int, float)) and not isinstance(number, bool)
+        if not valid or not ok(float(number)):  # NaN fails every check
+            raise ConfigError(
+                f"recipe key {key!r}: {what} of phase {name!r} must be {expects}; got {number!r}"
+            )
+        numbers[name] = float(number)
+    return numbers
+
+
 def phase_keep(value: Any) -> dict[str, float]:
     """A bc recipe's ``phase_keep``, checked: a mapping from the scripted expert's phase names
     to fractions in (0, 1]. Of the states the expert labels with a listed phase, each fit uses
@@ -253,23 +279,9 @@ def phase_keep(value: Any) -> dict[str, float]:
     all: a phase that fills most rows but asks little (Slide's wait, 72 % of them) then
     costs the fits less time. Raises :class:`~panda_rapier.errors.ConfigError` naming the
     key."""
-    if not isinstance(value, Mapping) or not value:
-        raise ConfigError(
-            "recipe key 'phase_keep' must map the expert's phase names to the fraction of their "
-            f"rows the fits use, e.g. {{wait: 0.2}}; got {value!r}"
-        )
-    fractions: dict[str, float] = {}
-    for name, fraction in value.items():
-        if not isinstance(name, str) or not name:
-            raise ConfigError(f"recipe key 'phase_keep' needs phase names as keys; got {name!r}")
-        ok = isinstance(fraction, (int, float)) and not isinstance(fraction, bool)
-        if not ok or not 0.0 < float(fraction) <= 1.0:  # NaN fails
-            raise ConfigError(
-                f"recipe key 'phase_keep': the fraction of phase {name!r} must be a number in "
-                f"(0, 1]; got {fraction!r}"
-            )
-        fractions[name] = float(fraction)
-    return fractions
+    texts = ("the fraction of their rows the fits use", "the fraction", "a number in (0, 1]",
+             "{wait: 0.2}")  # fmt: skip
+    return _phase_map("phase_keep", value, lambda f: 0.0 < f <= 1.0, texts)
 
 
 def phase_weights(value: Any) -> dict[str, float]:
@@ -278,23 +290,8 @@ def phase_weights(value: Any) -> dict[str, float]:
     with a listed phase weigh that much in the cloning loss, every other state 1, so a phase
     that decides the outcome but fills few rows (Slide's speed-up, about 6 % of them) is
     fitted more closely. Raises :class:`~panda_rapier.errors.ConfigError` naming the key."""
-    if not isinstance(value, Mapping) or not value:
-        raise ConfigError(
-            "recipe key 'phase_weights' must map the expert's phase names to weights, e.g. "
-            f"{{slide: 4.0, let_go: 4.0}}; got {value!r}"
-        )
-    weights: dict[str, float] = {}
-    for name, weight in value.items():
-        if not isinstance(name, str) or not name:
-            raise ConfigError(f"recipe key 'phase_weights' needs phase names as keys; got {name!r}")
-        ok = isinstance(weight, (int, float)) and not isinstance(weight, bool)
-        if not ok or not math.isfinite(float(weight)) or float(weight) < 0.0:
-            raise ConfigError(
-                f"recipe key 'phase_weights': the weight of phase {name!r} must be a finite "
-                f"number >= 0; got {weight!r}"
-            )
-        weights[name] = float(weight)
-    return weights
+    texts = ("weights", "the weight", "a finite number >= 0", "{slide: 4.0, let_go: 4.0}")
+    return _phase_map("phase_weights", value, lambda w: math.isfinite(w) and w >= 0.0, texts)
 
 
 #: What a recipe's ``normalize`` may set (``VecNormalize``'s arguments, rl-zoo3's meaning) and
