@@ -109,3 +109,15 @@ def dagger_arguments(
         return dict(seen)
 
     return arguments
+
+
+def tiny_bc_model(env_id: str) -> Any:
+    """A PPO ``MultiInputPolicy`` with one 8-unit layer on ``env_id``: a learner for tests of
+    DAgger's bookkeeping, whose fits are replaced or too short to matter."""
+    from stable_baselines3 import PPO
+
+    from panda_rapier.learning.normalization import NormalizedFlatten
+    from panda_rapier.sb3 import make_vec_env
+
+    kwargs = {"features_extractor_class": NormalizedFlatten, "net_arch": [8]}
+    return PPO("MultiInputPolicy", make_vec_env(env_id), policy_kwargs=kwargs, seed=0, device="cpu")

@@ -14,14 +14,12 @@ pytest.importorskip("stable_baselines3")
 yaml = pytest.importorskip("yaml")
 
 import torch as th  # noqa: E402
-from stable_baselines3 import PPO  # noqa: E402
+from conftest import tiny_bc_model  # noqa: E402
 
 from panda_rapier import ConfigError  # noqa: E402
 from panda_rapier.learning import imitation  # noqa: E402
-from panda_rapier.learning.normalization import NormalizedFlatten  # noqa: E402
 from panda_rapier.learning.recipes import BC_KEYS, bc_learning_rate, load_recipe  # noqa: E402
 from panda_rapier.registration import env_config  # noqa: E402
-from panda_rapier.sb3 import make_vec_env  # noqa: E402
 
 th.set_num_threads(1)
 
@@ -65,13 +63,7 @@ def test_each_fit_starts_from_its_learning_rate(monkeypatch: pytest.MonkeyPatch)
         return [0.0]
 
     monkeypatch.setattr(imitation, "behaviour_cloning", fit)
-    model = PPO(
-        "MultiInputPolicy",
-        make_vec_env(REACH),
-        policy_kwargs={"features_extractor_class": NormalizedFlatten, "net_arch": [8]},
-        seed=0,
-        device="cpu",
-    )
+    model = tiny_bc_model(REACH)
     short = dict(demo_episodes=2, rounds=2, episodes_per_round=2, epochs=1, epochs_per_round=1)
     short.update(final_epochs=1, first_seed=0, num_envs=2)
     config = env_config(REACH)

@@ -15,14 +15,12 @@ pytest.importorskip("stable_baselines3")
 yaml = pytest.importorskip("yaml")
 
 import torch as th  # noqa: E402
-from stable_baselines3 import PPO  # noqa: E402
+from conftest import tiny_bc_model  # noqa: E402
 
 from panda_rapier import ConfigError, InvalidArgumentError  # noqa: E402
 from panda_rapier.learning import imitation, rollouts  # noqa: E402
-from panda_rapier.learning.normalization import NormalizedFlatten  # noqa: E402
 from panda_rapier.learning.recipes import BC_KEYS, dagger_beta, load_recipe  # noqa: E402
 from panda_rapier.registration import env_config  # noqa: E402
-from panda_rapier.sb3 import make_vec_env  # noqa: E402
 
 th.set_num_threads(1)
 
@@ -104,13 +102,7 @@ def test_each_round_gives_the_expert_beta_to_the_power_of_the_round(
 
     monkeypatch.setattr(imitation, "collect", recording)
     monkeypatch.setattr(imitation, "behaviour_cloning", lambda *a, **k: [0.0])
-    model = PPO(
-        "MultiInputPolicy",
-        make_vec_env(PUSH),
-        policy_kwargs={"features_extractor_class": NormalizedFlatten, "net_arch": [8]},
-        seed=0,
-        device="cpu",
-    )
+    model = tiny_bc_model(PUSH)
     short = dict(demo_episodes=2, rounds=3, episodes_per_round=2, epochs=1, epochs_per_round=1)
     short.update(first_seed=0, num_envs=2)
     imitation.dagger(model, env_config(PUSH), **short)

@@ -15,29 +15,17 @@ pytest.importorskip("stable_baselines3")
 yaml = pytest.importorskip("yaml")
 
 import torch as th  # noqa: E402
-from stable_baselines3 import PPO  # noqa: E402
+from conftest import tiny_bc_model  # noqa: E402
 
 from panda_rapier import ConfigError, InvalidArgumentError, ScriptedPolicy  # noqa: E402
 from panda_rapier.learning import imitation  # noqa: E402
-from panda_rapier.learning.normalization import NormalizedFlatten  # noqa: E402
 from panda_rapier.learning.recipes import BC_KEYS, load_recipe, phase_keep  # noqa: E402
 from panda_rapier.learning.rollouts import collect  # noqa: E402
 from panda_rapier.registration import env_config  # noqa: E402
-from panda_rapier.sb3 import make_vec_env  # noqa: E402
 
 th.set_num_threads(1)
 
 SLIDE = "panda_rapier/Slide-v0"
-
-
-def _model() -> PPO:
-    return PPO(
-        "MultiInputPolicy",
-        make_vec_env(SLIDE),
-        policy_kwargs={"features_extractor_class": NormalizedFlatten, "net_arch": [8]},
-        seed=0,
-        device="cpu",
-    )
 
 
 @pytest.fixture(scope="module")
@@ -107,13 +95,13 @@ def test_every_fit_uses_the_kept_rows_and_their_weights(monkeypatch: pytest.Monk
     monkeypatch.setattr(imitation, "behaviour_cloning", fit)
     short = dict(demo_episodes=4, rounds=2, episodes_per_round=4, epochs=1, epochs_per_round=1)
     short.update(final_epochs=1, first_seed=0, num_envs=4)
-    data = imitation.dagger(_model(), env_config(SLIDE), **short)
+    data = imitation.dagger(tiny_bc_model(SLIDE), env_config(SLIDE), **short)
     n = len(data) // 3  # 4 episodes of the same length a fit
     assert [n for n, _, _ in fits] == [n, 2 * n, 3 * n, 3 * n]
     full = fits.copy()
     fits.clear()
     imitation.dagger(
-        _model(), env_config(SLIDE), phase_keep={"wait": 0.25},
+        tiny_bc_model(SLIDE), env_config(SLIDE), phase_keep={"wait": 0.25},
         phase_weights={"slide": 5.0}, **short,
     )  # fmt: skip
     for (n, waits, heavy), (n_all, waits_all, _) in zip(fits, full, strict=True):
@@ -121,7 +109,7 @@ def test_every_fit_uses_the_kept_rows_and_their_weights(monkeypatch: pytest.Monk
         assert n - waits == n_all - waits_all, "every other row is fitted"
         assert heavy == 5.0
     with pytest.raises(ConfigError, match=r"'phase_keep' names \['wiat'\]"):
-        imitation.dagger(_model(), env_config(SLIDE), phase_keep={"wiat": 0.5}, **short)
+        imitation.dagger(tiny_bc_model(SLIDE), env_config(SLIDE), phase_keep={"wiat": 0.5}, **short)
 
 
 def test_train_passes_the_recipe_key_on(dagger_arguments: Any) -> None:

@@ -357,12 +357,11 @@ def train_bc(
             drove = "expert demonstrations"
         elif stats is None:
             drove = "final fit"
-        elif beta > 0.0:
-            drove = f"learner drove, the expert {beta**r:.3g} of its steps: success "
-            drove += f"{stats.success_rate:.3f}"
         else:
-            drove = f"learner drove: success {stats.success_rate:.3f}"
-            drove += f", placed {stats.placed_rate:.3f}"
+            who = "learner drove"
+            if beta > 0.0:
+                who += f", the expert {beta**r:.3g} of its steps"
+            drove = f"{who}: success {stats.success_rate:.3f}, placed {stats.placed_rate:.3f}"
         say(f"round {r}: {len(data):,} labelled states ({drove}); loss {losses[-1]:.4f}")
         logger.record("bc/loss", losses[-1])
         logger.record("bc/labelled_states", len(data))

@@ -19,8 +19,9 @@ from typing import Any
 import numpy as np
 
 from .. import _common
-from ..agents.evaluation import evaluate
+from ..agents.evaluation import _actor, evaluate
 from ..errors import InvalidArgumentError
+from ..pixels import observation_spec
 from ..policy import ScriptedPolicy
 
 __all__ = ["Demonstrations", "RolloutStats", "collect", "expert_steps", "row_uniforms"]
@@ -185,21 +186,16 @@ def collect(
     expert = ScriptedPolicy(config)._native
     driver: Any = expert.act if actor is None else actor
     if actor is not None and share > 0.0:
-        schema = _common.Schema.of(_common.config_json(dict(config)))
-        predict = getattr(actor, "predict", None)
-
-        def learner(flat: np.ndarray) -> np.ndarray:
-            if callable(predict):
-                actions, _ = predict(_common.split_observation(flat, schema), deterministic=True)
-            else:
-                actions = actor(flat)
-            return np.asarray(actions, dtype=np.float32).reshape(flat.shape[0], -1)
+        # The learner acts as evaluate would call it (its own adapter, on state observations).
+        config_json = _common.config_json(dict(config))
+        spec = observation_spec(_common.Schema.of(config_json), config_json=config_json)
+        learner, _, _ = _actor(actor, spec, lambda: [])
 
         def driver(flat: np.ndarray) -> np.ndarray:
-            actions = learner(flat).copy()
+            actions = np.array(learner(flat, None), dtype=np.float32)
             take = expert_steps(flat, share, first_seed)
             if take.any():
-                actions[take] = np.asarray(expert.act(flat), dtype=np.float32)[take]
+                actions[take] = expert.act(flat[take])
             return actions
 
     rows_obs: list[np.ndarray] = []
