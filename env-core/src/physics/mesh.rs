@@ -12,6 +12,7 @@
 use std::fs;
 use std::io;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use nalgebra::{Isometry3, Vector3};
@@ -444,8 +445,12 @@ impl ShapeCache {
         let Ok(text) = serde_json::to_string(&entry) else {
             return;
         };
-        // Written beside and renamed into place, so a reader never sees half a file.
-        let partial = dir.join(format!("{key}.{}.part", std::process::id()));
+        // Written beside and renamed into place, so a reader never sees half a file. The
+        // partial file is this write's own (process and write number): two threads storing
+        // the same entry at once must not write into one file while the other renames it.
+        static WRITES: AtomicU64 = AtomicU64::new(0);
+        let n = WRITES.fetch_add(1, Ordering::Relaxed);
+        let partial = dir.join(format!("{key}.{}.{n}.part", std::process::id()));
         let _ = fs::create_dir_all(dir)
             .and_then(|()| fs::write(&partial, text))
             .and_then(|()| fs::rename(&partial, &path))
