@@ -19,7 +19,7 @@ fn holding_cube() -> Simulation {
 }
 
 /// Steps of one held-cube scene before a fresh one is built: 10 simulated seconds, well within
-/// the time the grasp holds under this swing (see `tests/grasp_sequence.rs`).
+/// the time the grasp holds under this swing (see `tests/integration/grasp_sequence.rs`).
 const STEPS_PER_SCENE: u64 = 1000;
 
 fn physics_step(c: &mut Criterion) {

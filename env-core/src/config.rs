@@ -13,7 +13,7 @@ use crate::error::{Error, Result};
 /// The physics engine's step and solver settings.
 ///
 /// The defaults are the cheapest settings that keep the friction grasp honest (see
-/// `tests/grasp_sequence.rs` for the slip bound they are held to).
+/// `tests/integration/grasp_sequence.rs` for the slip bound they are held to).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SolverConfig {
@@ -107,7 +107,7 @@ pub struct MotorConfig {
     /// Reflected drive inertia (kg) added to the gripper's finger joints. The real gripper's
     /// geared drive has plenty; without any, a light finger pressed against the floor spiked to
     /// 20-40 m/s (3 times in 64,000 random-action steps), and 0.05 kg removed those blow-ups
-    /// with the grasp's slip unchanged (`tests/grasp_sequence.rs`).
+    /// with the grasp's slip unchanged (`tests/integration/grasp_sequence.rs`).
     pub finger_armature: f64,
     /// Joint acceleration limit (rad/s^2 or m/s^2) of the kinematic arm
     /// ([`ArmFidelity::Kinematic`]). The default matches what the dynamic arm's torque-limited

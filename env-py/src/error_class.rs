@@ -1,5 +1,5 @@
 //! Which exception class of `panda_rapier.errors` each core error is raised as. Plain Rust (no
-//! pyo3), so the facade's `tests/errors.rs` compiles this file too and checks every variant;
+//! pyo3), so the facade's `tests/integration/errors.rs` compiles this file too and checks every variant;
 //! this crate has no Rust test harness (see its Cargo.toml).
 
 use panda_rapier_core::Error;

@@ -2,8 +2,7 @@
 //! drifting or sinking; a fixture stays where it is put and holds what falls into it; snapshots
 //! restore them bit for bit; renderers see every part; bad shapes are refused by name.
 
-#[path = "common/objects.rs"]
-mod objects;
+use crate::common::objects;
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use objects::{object, run, world};

@@ -3,10 +3,8 @@
 //! disk by content and settings, files of convex blocks are taken as they are, STL files load,
 //! and bad files are refused by name.
 
-#[path = "common/obj_files.rs"]
-mod obj_files;
-#[path = "common/objects.rs"]
-mod objects;
+use crate::common::obj_files;
+use crate::common::objects;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -171,7 +171,7 @@ fn invalid_configs_and_assets_are_rejected() {
 /// The Python bindings' choice of exception class per variant (`env-py/src/error_class.rs`,
 /// plain Rust, compiled here because the bindings crate has no Rust test harness).
 #[allow(dead_code)]
-#[path = "../env-py/src/error_class.rs"]
+#[path = "../../env-py/src/error_class.rs"]
 mod error_class;
 
 #[test]

@@ -1,6 +1,6 @@
 //! The operational-space controller (`ee_controller: "osc"`, issue 58): it holds the arm still
 //! against gravity, tracks a moving target, refuses bad options by name (that it gives the
-//! same bits for any thread count is `tests/env_determinism.rs`'s contract). Seeds 5811-5819 are this file's own.
+//! same bits for any thread count is `tests/integration/env_determinism.rs`'s contract). Seeds 5811-5819 are this file's own.
 
 use nalgebra::{UnitQuaternion, Vector3};
 use panda_rapier::env::{EeController, PandaEnv};

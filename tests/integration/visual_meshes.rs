@@ -3,8 +3,7 @@
 //! the drawn object's visual mesh in its file's colours, a mesh that is not closed is drawn
 //! from both sides, and a visual mesh that cannot be read is refused by file and field.
 
-#[path = "common/obj_files.rs"]
-mod obj_files;
+use crate::common::obj_files;
 
 use std::path::PathBuf;
 use std::sync::Arc;

@@ -1,6 +1,6 @@
 //! `ee_pose` control (issue 58): the 7-D action turns the hand as well as moving it, in the base
 //! or the hand frame; bad values are refused with the option's name (that results are the same
-//! bits for any thread count is `tests/env_determinism.rs`'s contract). Seeds 5801-5809 are this file's own.
+//! bits for any thread count is `tests/integration/env_determinism.rs`'s contract). Seeds 5801-5809 are this file's own.
 
 use nalgebra::{UnitQuaternion, Vector3};
 use panda_rapier::env::{EeFrame, PandaEnv};
