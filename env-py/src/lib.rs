@@ -178,11 +178,20 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<env::NativeSnapshot>()?;
     m.add_class::<vector::NativeVecEnv>()?;
     m.add_class::<policy::NativeScriptedPolicy>()?;
+    m.add_function(wrap_pyfunction!(policy::input_features, m)?)?;
     m.add_class::<policy::NativePolicyNetwork>()?;
     m.add_class::<evaluation::NativeEvaluation>()?;
     m.add_class::<render::NativeRenderer>()?;
     m.add_class::<render::NativeCameras>()?;
     render::add_defaults(m)?;
+    // The policy networks' input features: name -> entries beyond the flat observation's.
+    m.add(
+        "INPUT_FEATURES",
+        panda_rapier_policies::InputFeatures::ALL
+            .iter()
+            .map(|f| (f.name(), f.extra_entries()))
+            .collect::<std::collections::BTreeMap<_, _>>(),
+    )?;
     // The `touch` observation entry's layout: (name, start, count) of each part.
     m.add(
         "TOUCH_LAYOUT",

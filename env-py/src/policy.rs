@@ -3,7 +3,9 @@
 //! observations in one call.
 
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
-use panda_rapier_policies::{Activation, NetworkWeights, OutputMap, PolicyNetwork, ScriptedPolicy};
+use panda_rapier_policies::{
+    Activation, InputFeatures, NetworkWeights, OutputMap, PolicyNetwork, ScriptedPolicy,
+};
 use pyo3::prelude::*;
 
 use crate::convert::contiguous;
@@ -98,9 +100,10 @@ pub struct NativePolicyNetwork {
 #[pymethods]
 impl NativePolicyNetwork {
     /// `layers`: `(weight, bias)` float32 arrays per layer, torch's `outputs x inputs`
-    /// weights, the output layer last; `standardizer`: `(mean, scale, clip)` or `None`.
+    /// weights, the output layer last; `standardizer`: `(mean, scale, clip)` of the features,
+    /// or `None`; `features`: `"flat"` or `"cube_orientation"` (`InputFeatures`).
     #[new]
-    #[pyo3(signature = (observation_dim, layers, activation, output, low, high, standardizer=None))]
+    #[pyo3(signature = (observation_dim, layers, activation, output, low, high, standardizer=None, features="flat"))]
     #[allow(clippy::too_many_arguments, clippy::type_complexity)]
     fn new(
         py: Python<'_>,
@@ -111,6 +114,7 @@ impl NativePolicyNetwork {
         low: PyReadonlyArray1<'_, f32>,
         high: PyReadonlyArray1<'_, f32>,
         standardizer: Option<(PyReadonlyArray1<'_, f32>, PyReadonlyArray1<'_, f32>, f32)>,
+        features: &str,
     ) -> PyResult<Self> {
         let mut copied = Vec::with_capacity(layers.len());
         for (index, (weight, bias)) in layers.iter().enumerate() {
@@ -141,6 +145,7 @@ impl NativePolicyNetwork {
         };
         let weights = NetworkWeights {
             observation_dim,
+            features: InputFeatures::parse(features).map_err(|e| to_py(py, e))?,
             standardizer,
             layers: copied,
             activation: Some(Activation::parse(activation).map_err(|e| to_py(py, e))?),
@@ -191,4 +196,50 @@ impl NativePolicyNetwork {
         detached(py, || network.act(rows, &mut actions))?.map_err(|e| to_py(py, e))?;
         PyArray1::from_vec(py, actions).reshape([n, self.network.action_dim()])
     }
+}
+
+/// The input features `features` (`"flat"` or `"cube_orientation"`, `InputFeatures`) of flat
+/// observations (`n x observation_dim`, float32, finite): `n x feature_dim`, float32, computed
+/// in `f64` as `PolicyNetwork` computes them and rounded once.
+#[pyfunction]
+pub fn input_features<'py>(
+    py: Python<'py>,
+    features: &str,
+    observations: PyReadonlyArray2<'py, f32>,
+) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    let kind = InputFeatures::parse(features).map_err(|e| to_py(py, e))?;
+    let shape = observations.as_array().shape().to_vec();
+    let (n, dim) = (shape[0], shape[1]);
+    let least = kind.min_observation_dim();
+    if dim < least {
+        return Err(invalid(
+            py,
+            ErrorClass::InvalidArgument,
+            format!("observations for features {features:?} need at least {least} columns, got shape {shape:?}"),
+        ));
+    }
+    let rows = contiguous(py, &observations, "observations")?;
+    if let Some(bad) = rows.iter().find(|v| !v.is_finite()) {
+        return Err(invalid(
+            py,
+            ErrorClass::InvalidArgument,
+            format!("observations must be finite, got {bad}"),
+        ));
+    }
+    let out_dim = kind.dim(dim);
+    let mut out = vec![0.0f32; n * out_dim];
+    detached(py, || {
+        let mut raw = vec![0.0f64; dim];
+        let mut features = vec![0.0f64; out_dim];
+        for (row, out) in rows.chunks_exact(dim).zip(out.chunks_exact_mut(out_dim)) {
+            for (r, &v) in raw.iter_mut().zip(row) {
+                *r = f64::from(v);
+            }
+            kind.write(&raw, &mut features);
+            for (o, &f) in out.iter_mut().zip(&features) {
+                *o = f as f32;
+            }
+        }
+    })?;
+    PyArray1::from_vec(py, out).reshape([n, out_dim])
 }

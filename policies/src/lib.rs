@@ -17,10 +17,12 @@
 //!   a saved stable-baselines3 model with).
 
 pub mod evaluation;
+pub mod features;
 pub mod network;
 pub mod scripted;
 pub mod tutorial;
 
 pub use evaluation::{evaluate, EpisodeRecord, Evaluation, EvaluationReport};
+pub use features::InputFeatures;
 pub use network::{Activation, NetworkWeights, OutputMap, PolicyNetwork};
 pub use scripted::{Decision, Phase, ScriptedParams, ScriptedPolicy};

@@ -23,6 +23,8 @@
 
 use panda_rapier_core::{Error, Result};
 
+use crate::features::InputFeatures;
+
 /// The nonlinearity between hidden layers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Activation {
@@ -144,13 +146,15 @@ struct Standardizer {
     clip: f64,
 }
 
-/// A trained policy's deterministic action: optional standardisation, hidden layers with one
-/// activation, an output layer and the map onto the action bounds. Built from a torch model's
+/// A trained policy's deterministic action: its input features ([`InputFeatures`]), optional
+/// standardisation, hidden layers with one activation, an output layer and the map onto the action bounds. Built from a torch model's
 /// weights (the Python package's `panda_rapier.inference` reads them from a saved model);
 /// [`Self::act`] gives the same bits on every CPU (module docs).
 #[derive(Clone, Debug)]
 pub struct PolicyNetwork {
     observation_dim: usize,
+    features: InputFeatures,
+    feature_dim: usize,
     standardizer: Option<Standardizer>,
     hidden: Vec<Dense>,
     activation: Activation,
@@ -168,7 +172,10 @@ const BLOCK: usize = 8;
 pub struct NetworkWeights {
     /// Length of a flat observation.
     pub observation_dim: usize,
-    /// `(mean, scale, clip)` of the observation standardisation, if the network has one.
+    /// What the network computes from a flat observation first (the flat observation itself
+    /// by default).
+    pub features: InputFeatures,
+    /// `(mean, scale, clip)` of the standardisation of the features, if the network has one.
     pub standardizer: Option<(Vec<f32>, Vec<f32>, f32)>,
     /// `(weight, bias)` of every layer in order, the output layer last; `weight` is torch's
     /// `outputs x inputs`, row-major.
@@ -189,6 +196,7 @@ impl PolicyNetwork {
     pub fn new(weights: NetworkWeights) -> Result<Self> {
         let NetworkWeights {
             observation_dim,
+            features,
             standardizer,
             layers,
             activation,
@@ -196,17 +204,24 @@ impl PolicyNetwork {
             low,
             high,
         } = weights;
-        if observation_dim == 0 {
-            return Err(invalid("observation_dim", "must be at least 1".into()));
+        let least = features.min_observation_dim();
+        if observation_dim < least {
+            return Err(invalid(
+                "observation_dim",
+                format!(
+                    "must be at least {least} for features {features:?}, got {observation_dim}"
+                ),
+            ));
         }
+        let feature_dim = features.dim(observation_dim);
         let standardizer = match standardizer {
             None => None,
             Some((mean, scale, clip)) => {
                 for (name, values) in [("mean", &mean), ("scale", &scale)] {
-                    if values.len() != observation_dim {
+                    if values.len() != feature_dim {
                         return Err(Error::WrongLength {
                             what: format!("standardizer {name}"),
-                            expected: observation_dim,
+                            expected: feature_dim,
                             got: values.len(),
                         });
                     }
@@ -234,7 +249,7 @@ impl PolicyNetwork {
                 "must hold at least the output layer".into(),
             ));
         };
-        let mut inputs = observation_dim;
+        let mut inputs = feature_dim;
         let mut hidden = Vec::with_capacity(hidden_layers.len());
         for (index, (weight, bias)) in hidden_layers.iter().enumerate() {
             let layer = Dense::from_torch(index, weight, bias, inputs)?;
@@ -257,6 +272,8 @@ impl PolicyNetwork {
         }
         Ok(Self {
             observation_dim,
+            features,
+            feature_dim,
             standardizer,
             hidden,
             activation: activation.unwrap_or(Activation::Relu),
@@ -306,28 +323,42 @@ impl PolicyNetwork {
             .hidden
             .iter()
             .map(|l| l.outputs)
-            .chain([self.observation_dim, self.head.outputs])
+            .chain([self.feature_dim, self.head.outputs])
             .max()
             .unwrap_or(1);
         let mut a = vec![0.0; BLOCK * widest];
         let mut b = vec![0.0; BLOCK * widest];
+        let mut raw = vec![0.0; self.observation_dim];
         for (obs, act) in observations
             .chunks(BLOCK * self.observation_dim)
             .zip(actions.chunks_mut(BLOCK * self.action_dim()))
         {
-            self.act_block(obs, act, &mut a, &mut b);
+            self.act_block(obs, act, &mut raw, &mut a, &mut b);
         }
         Ok(())
     }
 
-    fn act_block(&self, observations: &[f32], actions: &mut [f32], a: &mut [f64], b: &mut [f64]) {
+    fn act_block(
+        &self,
+        observations: &[f32],
+        actions: &mut [f32],
+        raw: &mut [f64],
+        a: &mut [f64],
+        b: &mut [f64],
+    ) {
         let rows = observations.len() / self.observation_dim;
-        let x = &mut a[..rows * self.observation_dim];
-        for (x, &o) in x.iter_mut().zip(observations) {
-            *x = f64::from(o);
+        let x = &mut a[..rows * self.feature_dim];
+        for (obs, x) in observations
+            .chunks_exact(self.observation_dim)
+            .zip(x.chunks_exact_mut(self.feature_dim))
+        {
+            for (r, &o) in raw.iter_mut().zip(obs) {
+                *r = f64::from(o);
+            }
+            self.features.write(raw, x);
         }
         if let Some(s) = &self.standardizer {
-            for row in x.chunks_exact_mut(self.observation_dim) {
+            for row in x.chunks_exact_mut(self.feature_dim) {
                 for ((v, m), sc) in row.iter_mut().zip(&s.mean).zip(&s.scale) {
                     *v = ((*v - m) / sc).clamp(-s.clip, s.clip);
                 }
@@ -382,6 +413,7 @@ mod tests {
     fn tiny(output: OutputMap) -> PolicyNetwork {
         PolicyNetwork::new(NetworkWeights {
             observation_dim: 2,
+            features: InputFeatures::Flat,
             standardizer: Some((vec![1.0, 0.0], vec![2.0, 0.5], 10.0)),
             layers: vec![
                 (vec![1.0, -1.0, 0.5, 0.25, -2.0, 1.0], vec![0.0, 0.1, 0.0]),
@@ -419,6 +451,54 @@ mod tests {
             net.act(row, &mut alone).unwrap();
             assert_eq!(alone, expected);
         }
+    }
+
+    #[test]
+    fn cube_orientation_features_come_before_the_layers() {
+        // One output reading the features' first entry (D's corner), one the row's last entry.
+        let observation_dim = 10;
+        let feature_dim = InputFeatures::CubeOrientation.dim(observation_dim);
+        assert_eq!(feature_dim, 26);
+        let mut weight = vec![0.0; 2 * feature_dim];
+        weight[0] = 1.0;
+        weight[2 * feature_dim - 1] = 1.0;
+        let net = PolicyNetwork::new(NetworkWeights {
+            observation_dim,
+            features: InputFeatures::CubeOrientation,
+            layers: vec![(weight, vec![0.0, 0.0])],
+            low: vec![-10.0; 2],
+            high: vec![10.0; 2],
+            ..Default::default()
+        })
+        .unwrap();
+        assert_eq!(net.observation_dim(), 10);
+        // The cube a quarter turn about z, the goal unturned: D = Rz(-90 deg), D[0][0] = 0.
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        let row = [0.0, 0.0, h, h, 0.0, 0.0, 0.0, 1.0, 0.0, 0.75];
+        let mut action = [0.0f32; 2];
+        net.act(&row, &mut action).unwrap();
+        assert!(action[0].abs() < 1e-6, "{action:?}");
+        assert_eq!(action[1], 0.75);
+        // Too short a row for the goals, and a standardizer of the flat length, are refused.
+        let short = NetworkWeights {
+            observation_dim: 8,
+            features: InputFeatures::CubeOrientation,
+            layers: vec![(vec![0.0; 48], vec![0.0, 0.0])],
+            low: vec![-1.0; 2],
+            high: vec![1.0; 2],
+            ..Default::default()
+        };
+        assert!(PolicyNetwork::new(short).is_err());
+        let flat_standardizer = NetworkWeights {
+            observation_dim,
+            features: InputFeatures::CubeOrientation,
+            standardizer: Some((vec![0.0; 10], vec![1.0; 10], 10.0)),
+            layers: vec![(vec![0.0; 2 * feature_dim], vec![0.0, 0.0])],
+            low: vec![-1.0; 2],
+            high: vec![1.0; 2],
+            ..Default::default()
+        };
+        assert!(PolicyNetwork::new(flat_standardizer).is_err());
     }
 
     #[test]

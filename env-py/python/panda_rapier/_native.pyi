@@ -9,6 +9,7 @@ __all__ = [
     "DEFAULT_RENDER_HEIGHT",
     "DEFAULT_RENDER_WIDTH",
     "DEPTH_FAR",
+    "INPUT_FEATURES",
     "TOUCH_LAYOUT",
     "AssetError",
     "Cameras",
@@ -28,6 +29,7 @@ __all__ = [
     "__version__",
     "default_config_json",
     "evaluate_scripted",
+    "input_features",
     "observation_camera_json",
     "schema",
     "segmentation_ids",
@@ -46,6 +48,9 @@ DEFAULT_RENDER_HEIGHT: int
 DEPTH_FAR: float
 #: The ``touch`` observation entry's parts: ``(name, start, count)`` (``TouchReading::LAYOUT``).
 TOUCH_LAYOUT: list[tuple[str, int, int]]
+#: Policy networks' input features (``InputFeatures``): name -> entries beyond the flat
+#: observation's.
+INPUT_FEATURES: dict[str, int]
 
 # The exception classes (env-py/src/errors.rs creates them, with their docstrings, when the
 # module initialises); panda_rapier.errors re-exports them and is their __module__.
@@ -201,6 +206,7 @@ class PolicyNetwork:
         low: _F32,
         high: _F32,
         standardizer: tuple[_F32, _F32, float] | None = None,
+        features: str = "flat",
     ) -> PolicyNetwork: ...
     @property
     def action_dim(self) -> int: ...
@@ -209,6 +215,8 @@ class PolicyNetwork:
     @property
     def hidden_sizes(self) -> list[int]: ...
     def act(self, observations: _F32) -> _F32: ...
+
+def input_features(features: str, observations: _F32) -> _F32: ...
 
 @final
 class Evaluation:

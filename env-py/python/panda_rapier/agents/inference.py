@@ -13,7 +13,8 @@ pickled ones are never unpickled) and the weights by :mod:`panda_rapier.agents.m
 needed: a shipped model evaluates with the base install).
 Supported: PPO and A2C (``MlpPolicy`` / ``MultiInputPolicy``), SAC and TQC (their actor), TD3
 and DDPG, with ReLU or Tanh hidden layers, on state observations, with the default flattening
-features extractor or :class:`~panda_rapier.learning.normalization.NormalizedFlatten`. Anything else
+features extractor, :class:`~panda_rapier.learning.normalization.NormalizedFlatten` or
+:class:`~panda_rapier.learning.normalization.CubeOrientationFeatures`. Anything else
 (image encoders, gSDE on SAC, other activations) raises :class:`UnsupportedModelError`, and
 ``panda-rapier eval`` falls back to loading the model with stable-baselines3.
 """
@@ -48,12 +49,15 @@ from .model_file import (
 
 __all__ = [
     "NATIVE",
+    "STANDARDISING_EXTRACTORS",
     "TORCH",
     "EvaluatedPolicy",
     "NetworkSpec",
     "PolicyNetwork",
     "UnsupportedModelError",
     "UntrustedModelError",
+    "input_feature_dim",
+    "input_features",
     "load_policy",
     "resolve_policy",
     "space_mismatch",
@@ -69,6 +73,25 @@ TORCH = "torch-f32"
 #: Default hidden activations of stable-baselines3's policies, by family.
 _DEFAULT_ACTIVATION = {"actor-critic": "tanh", "sac": "relu", "td3": "relu"}
 _ACTIVATIONS = {"ReLU": "relu", "Tanh": "tanh"}
+#: The standardising features extractors (``panda_rapier.learning.normalization``) by class
+#: name, and the input features each computes first (``_native.INPUT_FEATURES``).
+STANDARDISING_EXTRACTORS = {
+    "NormalizedFlatten": "flat",
+    "CubeOrientationFeatures": "cube_orientation",
+}
+
+
+def input_features(features: str, flat: np.ndarray) -> np.ndarray:
+    """The input features ``features`` (one of :data:`STANDARDISING_EXTRACTORS`' values) of
+    rows of flat observations, float32, computed as the native network computes them."""
+    return _native.input_features(features, np.ascontiguousarray(flat, dtype=np.float32))
+
+
+def input_feature_dim(features: str, observation_dim: int) -> int:
+    """Length of the input features ``features`` of a flat observation of ``observation_dim``."""
+    return observation_dim + _native.INPUT_FEATURES[features]
+
+
 #: Policy modules (``data["policy_class"]["__module__"]``) and the family each belongs to.
 _FAMILIES = {
     "stable_baselines3.common.policies": "actor-critic",
@@ -103,6 +126,8 @@ class NetworkSpec:
     high: np.ndarray
     #: ``(mean, scale, clip)`` of :class:`~panda_rapier.learning.normalization.NormalizedFlatten`.
     standardizer: tuple[np.ndarray, np.ndarray, float] | None = None
+    #: What the network computes from the flat observation first (``_native.INPUT_FEATURES``).
+    features: str = "flat"
 
 
 class PolicyNetwork:
@@ -128,6 +153,7 @@ class PolicyNetwork:
             spec.low,
             spec.high,
             spec.standardizer,
+            spec.features,
         )
         #: ``actor-critic`` (PPO, A2C), ``sac`` (SAC, TQC) or ``td3`` (TD3, DDPG).
         self.algorithm = algorithm
@@ -385,16 +411,20 @@ def _build(
     if not layers:
         raise UnsupportedModelError("no layers found in the weights")
     standardizer = None
-    if extractor == "NormalizedFlatten":
+    features = "flat"
+    if extractor in STANDARDISING_EXTRACTORS:
         prefix = next((p for p in extractors if f"{p}.mean" in state), None)
         if prefix is None:
-            raise UnsupportedModelError("NormalizedFlatten without its mean and scale")
+            raise UnsupportedModelError(f"{extractor} without its mean and scale")
         mean, scale = (_array(state[f"{prefix}.{k}"], 1) for k in ("mean", "scale"))
         standardizer = (mean, scale, float(clip))
+        features = STANDARDISING_EXTRACTORS[extractor]
     elif extractor not in (None, "CombinedExtractor", "FlattenExtractor"):
         raise UnsupportedModelError(f"features extractor {extractor}")
-    observation_dim = int(layers[0][0].shape[1])
-    return NetworkSpec(observation_dim, layers, activation, output, low, high, standardizer)
+    observation_dim = int(layers[0][0].shape[1]) - _native.INPUT_FEATURES[features]
+    return NetworkSpec(
+        observation_dim, layers, activation, output, low, high, standardizer, features
+    )
 
 
 #: ``panda-rapier eval --inference`` choices.

@@ -40,11 +40,13 @@ from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
 from .. import _common
 from .._common import CLIP
+from ..agents.inference import STANDARDISING_EXTRACTORS, input_feature_dim, input_features
 from ..registration import MAX_EPISODE_STEPS
 from ..seeds import FIT_FIRST_SEED
 from .rollouts import collect
 
 __all__ = [
+    "CubeOrientationFeatures",
     "FitNormalizerCallback",
     "NormalizedFlatten",
     "RunningNormalizer",
@@ -67,27 +69,74 @@ class NormalizedFlatten(BaseFeaturesExtractor):
     mean: th.Tensor
     scale: th.Tensor
 
+    #: What the network computes from the flat observation before standardising it: one of
+    #: ``panda_rapier._native.INPUT_FEATURES`` (``panda_rapier_policies::InputFeatures``),
+    #: which the native network computes the same way.
+    input_features = STANDARDISING_EXTRACTORS["NormalizedFlatten"]
+
     def __init__(self, observation_space: gym.spaces.Dict, clip: float = CLIP) -> None:
+        name = type(self).__name__
         if not isinstance(observation_space, gym.spaces.Dict):
-            raise TypeError(f"NormalizedFlatten needs a Dict space, got {observation_space}")
+            raise TypeError(f"{name} needs a Dict space, got {observation_space}")
         keys = sorted(observation_space.spaces)
-        dim = sum(gym.spaces.flatdim(observation_space.spaces[k]) for k in keys)
+        flat_dim = sum(gym.spaces.flatdim(observation_space.spaces[k]) for k in keys)
+        dim = input_feature_dim(self.input_features, flat_dim)
         super().__init__(observation_space, features_dim=dim)
         self.keys = keys
         self.clip = float(clip)
         self.register_buffer("mean", th.zeros(dim))
         self.register_buffer("scale", th.ones(dim))
 
+    def features(self, flat: np.ndarray) -> np.ndarray:
+        """The features (float32) of rows of flat observations, before standardisation."""
+        if self.input_features == "flat":
+            return np.asarray(flat)
+        return input_features(self.input_features, flat)
+
     def fit(self, flat: np.ndarray, min_scale: float = MIN_SCALE) -> None:
-        """Sets mean and scale (standard deviation, at least ``min_scale``) from rows of flat
-        observations."""
-        mean, scale = _common.standardisation(flat, self.features_dim, min_scale)
+        """Sets mean and scale (standard deviation, at least ``min_scale``) of the features of
+        rows of flat observations."""
+        mean, scale = _common.standardisation(self.features(flat), self.features_dim, min_scale)
         self.mean.copy_(th.as_tensor(mean))
         self.scale.copy_(th.as_tensor(scale))
 
     def forward(self, observations: Mapping[str, th.Tensor]) -> th.Tensor:
         flat = th.cat([observations[k].flatten(start_dim=1) for k in self.keys], dim=1)
+        if self.input_features != "flat":
+            # Computed natively, as the native network does (no gradient flows into inputs).
+            features = self.features(flat.detach().cpu().numpy())
+            flat = th.as_tensor(features, dtype=flat.dtype, device=flat.device)
         return ((flat - self.mean) / self.scale).clamp(-self.clip, self.clip)
+
+
+class CubeOrientationFeatures(NormalizedFlatten):
+    """:class:`NormalizedFlatten` for tasks whose goals are the cube's orientation (``Flip``):
+    the two goal quaternions become the rotation that turns the cube onto its goal (9 entries
+    of its matrix) and the cube's pose up to its 24 symmetries (15 entries of the fourth-order
+    tensor of its axes), before the standardisation; the rest of the flat observation follows.
+
+    The quaternions (``w >= 0``) jump to the other sign as a turn passes half a turn, and tell
+    apart orientations of the cube that look the same; these features are continuous and the
+    same for every labelling of the faces (``panda_rapier_policies::InputFeatures``, computed
+    natively, so :class:`~panda_rapier.agents.inference.PolicyNetwork` acts on the same
+    numbers). In a recipe::
+
+        policy_kwargs: "dict(features_extractor_class=CubeOrientationFeatures)"
+    """
+
+    input_features = STANDARDISING_EXTRACTORS["CubeOrientationFeatures"]
+
+    def __init__(self, observation_space: gym.spaces.Dict, clip: float = CLIP) -> None:
+        spaces = observation_space.spaces if isinstance(observation_space, gym.spaces.Dict) else {}
+        for key in ("achieved_goal", "desired_goal"):
+            shape = getattr(spaces.get(key), "shape", None)
+            if spaces and shape != (4,):
+                raise TypeError(
+                    f"CubeOrientationFeatures needs goals that are orientation quaternions "
+                    f"(shape (4,)); {key!r} has shape {shape} (tasks whose goals are positions "
+                    f"take NormalizedFlatten)"
+                )
+        super().__init__(observation_space, clip)
 
 
 def fit_normalizers(policy: th.nn.Module, flat: np.ndarray) -> int:

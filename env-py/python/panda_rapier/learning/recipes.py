@@ -399,14 +399,16 @@ def _schedule(value: Any) -> Any:
 
 def evaluate_expression(text: str) -> Any:
     """rl-zoo3 evaluates string-valued ``policy_kwargs`` / ``replay_buffer_kwargs`` as Python;
-    the same names are available here (``nn``, ``th``), plus ``NormalizedFlatten``."""
+    the same names are available here (``nn``, ``th``), plus ``NormalizedFlatten`` and
+    ``CubeOrientationFeatures``."""
     # torch only here and in algorithm_class / model_kwargs: reading recipes needs none.
     import torch as th
     from torch import nn
 
-    from .normalization import NormalizedFlatten
+    from .normalization import CubeOrientationFeatures, NormalizedFlatten
 
-    names = {"nn": nn, "th": th, "torch": th, "NormalizedFlatten": NormalizedFlatten}
+    names = {"nn": nn, "th": th, "torch": th, "NormalizedFlatten": NormalizedFlatten,
+             "CubeOrientationFeatures": CubeOrientationFeatures}  # fmt: skip
     try:
         with quiet_moved():  # recipes of 0.1 import panda_rapier.normalization by name
             return eval(text, names)

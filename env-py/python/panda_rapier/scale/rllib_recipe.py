@@ -198,7 +198,13 @@ def recipe_model_config(
     callbacks = recipe.get("callback") or []
     callbacks = callbacks if isinstance(callbacks, list) else [callbacks]
     names = {next(iter(c)) if isinstance(c, Mapping) else str(c): c for c in callbacks}
-    if kwargs.get("features_extractor_class") is NormalizedFlatten:
+    extractor = kwargs.get("features_extractor_class")
+    if isinstance(extractor, type) and issubclass(extractor, NormalizedFlatten):
+        if extractor is not NormalizedFlatten:
+            raise ConfigError(
+                f"RLlib recipes standardise the flat observation (NormalizedFlatten); "
+                f"{extractor.__name__} is for panda-rapier train's stable-baselines3 algorithms"
+            )
         if not any(same_class(n, FIT_NORMALIZER) for n in names):
             raise ConfigError("NormalizedFlatten without FitNormalizerCallback is not fitted")
         mean, scale = _expert_standardisation(json.dumps(dict(env_config), sort_keys=True),
