@@ -503,6 +503,12 @@ def test_ppo_config_follows_the_sb3_recipe() -> None:
     assert "min_action_std" not in ppo_config("panda_rapier/PushDense-v0").model_config
     with pytest.raises(ConfigError, match="no recipe"):
         ppo_config("panda_rapier/PickAndPlace-v0")
+    # The RLlib module standardises the flat observation only: other features are refused.
+    from panda_rapier.scale.rllib_recipe import recipe_model_config
+
+    cube = {"policy_kwargs": "dict(features_extractor_class=CubeOrientationFeatures)"}
+    with pytest.raises(ConfigError, match="CubeOrientationFeatures is for panda-rapier train"):
+        recipe_model_config(cube, env_config("panda_rapier/Flip-v0"))
 
 
 def _recipe_module() -> Any:
