@@ -7,7 +7,8 @@ episode held out) of a 3x256 MLP on the afternoon run's 440,000 expert-labelled 
 invariant (the rotation to the goal and the cube's symmetric fourth-order tensor, the raw
 quaternions dropped: CubeOrientationFeatures' features) or invariant-keepq (the same, the
 observation's own cube quaternion kept, as CubeOrientationFeatures keeps it).
-offline_phases.py is the same with the error split by the expert's phase."""
+`python offline_fit.py matrix 5 phases` also splits the held-out error by the expert's phase
+(offline_phases.log)."""
 import sys, time
 import numpy as np, torch
 torch.set_num_threads(1)
@@ -26,6 +27,11 @@ def rel(qa, qb):  # R_a^T R_b flattened
     return np.einsum("nji,njk->nik", A, B).reshape(-1, 9)
 
 enc = sys.argv[1]
+by_phase = len(sys.argv) > 3 and sys.argv[3] == "phases"
+if by_phase:
+    from panda_rapier.policy import ScriptedPolicy
+
+    phases = np.array(ScriptedPolicy("panda_rapier/Flip-v0").phases(d["observations"]))
 if enc == "quat":
     X = obs
 elif enc == "matrix":
@@ -60,3 +66,11 @@ for epoch in range(int(sys.argv[2])):
     with torch.no_grad():
         e = ((net(Xte) - Yte) ** 2).mean(0)
     print(f"{enc} epoch {epoch} test mse {e.mean():.5f} per-dim {e.numpy().round(5)} {time.time()-t0:.0f}s", flush=True)
+
+if by_phase:
+    with torch.no_grad():
+        err = ((net(Xte) - Yte) ** 2).sum(1).numpy()
+    ph = phases[test]
+    for p in sorted(set(ph)):
+        m = ph == p
+        print(f"{p:10s} rows {m.mean():.3f} mse-sum {err[m].mean():.4f} share-of-error {err[m].sum()/err.sum():.3f} action-var {Yte.numpy()[m].var(0).sum():.3f}")
