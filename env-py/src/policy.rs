@@ -229,13 +229,9 @@ pub fn input_features<'py>(
     let out_dim = kind.dim(dim);
     let mut out = vec![0.0f32; n * out_dim];
     detached(py, || {
-        let mut raw = vec![0.0f64; dim];
         let mut features = vec![0.0f64; out_dim];
         for (row, out) in rows.chunks_exact(dim).zip(out.chunks_exact_mut(out_dim)) {
-            for (r, &v) in raw.iter_mut().zip(row) {
-                *r = f64::from(v);
-            }
-            kind.write(&raw, &mut features);
+            kind.write(row, &mut features);
             for (o, &f) in out.iter_mut().zip(&features) {
                 *o = f as f32;
             }

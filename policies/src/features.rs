@@ -83,10 +83,16 @@ impl InputFeatures {
     }
 
     /// Writes the features of the flat observation `row` into `out` (`self.dim(row.len())`
-    /// entries).
-    pub fn write(self, row: &[f64], out: &mut [f64]) {
+    /// entries), in `f64`: `f32` observations convert exactly, so rows of either type give the
+    /// same bits.
+    pub fn write<T: Copy + Into<f64>>(self, row: &[T], out: &mut [f64]) {
+        let widen = |out: &mut [f64], values: &[T]| {
+            for (o, &v) in out.iter_mut().zip(values) {
+                *o = v.into();
+            }
+        };
         match self {
-            Self::Flat => out.copy_from_slice(row),
+            Self::Flat => widen(out, row),
             Self::CubeOrientation => {
                 let a = rotation(&row[0..4]);
                 let g = rotation(&row[4..8]);
@@ -111,15 +117,15 @@ impl InputFeatures {
                         }
                     }
                 }
-                out[CUBE_FEATURES..].copy_from_slice(&row[GOALS..]);
+                widen(&mut out[CUBE_FEATURES..], &row[GOALS..]);
             }
         }
     }
 }
 
 /// The rotation matrix of the quaternion `x, y, z, w` (normalised; the identity for zero).
-fn rotation(q: &[f64]) -> Matrix3<f64> {
-    let q = Quaternion::new(q[3], q[0], q[1], q[2]);
+fn rotation<T: Copy + Into<f64>>(q: &[T]) -> Matrix3<f64> {
+    let q = Quaternion::new(q[3].into(), q[0].into(), q[1].into(), q[2].into());
     if q.norm() == 0.0 {
         return Matrix3::identity();
     }

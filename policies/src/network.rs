@@ -328,34 +328,23 @@ impl PolicyNetwork {
             .unwrap_or(1);
         let mut a = vec![0.0; BLOCK * widest];
         let mut b = vec![0.0; BLOCK * widest];
-        let mut raw = vec![0.0; self.observation_dim];
         for (obs, act) in observations
             .chunks(BLOCK * self.observation_dim)
             .zip(actions.chunks_mut(BLOCK * self.action_dim()))
         {
-            self.act_block(obs, act, &mut raw, &mut a, &mut b);
+            self.act_block(obs, act, &mut a, &mut b);
         }
         Ok(())
     }
 
-    fn act_block(
-        &self,
-        observations: &[f32],
-        actions: &mut [f32],
-        raw: &mut [f64],
-        a: &mut [f64],
-        b: &mut [f64],
-    ) {
+    fn act_block(&self, observations: &[f32], actions: &mut [f32], a: &mut [f64], b: &mut [f64]) {
         let rows = observations.len() / self.observation_dim;
         let x = &mut a[..rows * self.feature_dim];
         for (obs, x) in observations
             .chunks_exact(self.observation_dim)
             .zip(x.chunks_exact_mut(self.feature_dim))
         {
-            for (r, &o) in raw.iter_mut().zip(obs) {
-                *r = f64::from(o);
-            }
-            self.features.write(raw, x);
+            self.features.write(obs, x);
         }
         if let Some(s) = &self.standardizer {
             for row in x.chunks_exact_mut(self.feature_dim) {
