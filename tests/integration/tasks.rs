@@ -6,7 +6,7 @@
 use panda_rapier::env::PandaEnv;
 use panda_rapier::policies::{evaluate, ScriptedPolicy};
 use panda_rapier::task::{
-    ControlMode, EnvConfig, ObservationLayout, ResetOptions, RewardType, TaskKind,
+    ControlMode, EnvConfig, InfoValue, ObservationLayout, ResetOptions, RewardType, TaskKind,
 };
 use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use panda_rapier::{ArmFidelity, Error};
@@ -319,5 +319,47 @@ fn the_open_drawer_expert_opens_the_drawer_in_its_ids_action_modes() {
         let success = report.success_rate();
         println!("{mode:?}: success {success}");
         assert!(success >= 0.99, "{mode:?}: {success}");
+    }
+}
+
+/// Stack's `stage` term (off by default), with the weight its documentation names (3, and
+/// `lift` 1): the scripted expert's stacks reach all four milestones, and each milestone, the
+/// first step it holds, pays more than any step before it (letting go of each cube included).
+#[test]
+fn stack_s_stage_term_pays_each_milestone_more_than_any_step_before_it() {
+    let weight = 3.0;
+    let mut config = config(TaskKind::Stack, ControlMode::Ee, RewardType::Dense);
+    config.reward_weights = [("stage", weight), ("lift", 1.0)]
+        .into_iter()
+        .map(|(name, w)| (name.to_string(), w))
+        .collect();
+    let mut env = PandaEnv::new(config).unwrap();
+    let mut policy = ScriptedPolicy::new(env.config()).unwrap();
+    for seed in 0..4 {
+        env.reset(Some(seed), &ResetOptions::default()).unwrap();
+        let mut action = vec![0.0; env.action_dim()];
+        let (mut reached, mut best) = (0, f32::NEG_INFINITY);
+        for step in 0..TaskKind::Stack.descriptor().episode_steps {
+            policy.act(env.observation(), &mut action).unwrap();
+            let t = env.step(&action).unwrap();
+            let Some(InfoValue::Float(stage)) = t.info.get("reward_stage") else {
+                panic!("no reward_stage in Stack's info");
+            };
+            let milestones = (stage / weight).round() as usize;
+            assert_eq!(stage, milestones as f64 * weight, "seed {seed} step {step}");
+            if milestones > reached {
+                assert!(
+                    t.reward > best,
+                    "seed {seed} step {step}: milestone {milestones} pays {} after {best}",
+                    t.reward
+                );
+                reached = milestones;
+            }
+            best = best.max(t.reward);
+        }
+        assert_eq!(
+            reached, 4,
+            "seed {seed}: the expert's stack reached {reached} milestones"
+        );
     }
 }

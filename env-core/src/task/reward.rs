@@ -116,7 +116,8 @@ pub mod cube_terms {
 /// The weight of every reward term a task can declare, resolved once per environment
 /// ([`RewardWeights::resolve`]): each of the task's terms at its default or at what the
 /// configuration's `reward_weights` sets; a term the task does not pay weighs 0. Every task
-/// reads its weights from here (the staged cube reward's six, Flip's `orient`).
+/// reads its weights from here (the staged cube reward's six, Stack's `stage`, Flip's
+/// `orient`).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RewardWeights {
     /// Weight of the `reach` term.
@@ -131,6 +132,8 @@ pub struct RewardWeights {
     pub place: f64,
     /// Weight of the `release` term (0: off).
     pub release: f64,
+    /// Weight of Stack's `stage` term (0: off).
+    pub stage: f64,
     /// Weight of Flip's `orient` term.
     pub orient: f64,
     /// Weight of peg insertion's `align` term.
@@ -175,6 +178,7 @@ impl RewardWeights {
             "carry" => &mut self.carry,
             "place" => &mut self.place,
             "release" => &mut self.release,
+            "stage" => &mut self.stage,
             "orient" => &mut self.orient,
             "align" => &mut self.align,
             "insert" => &mut self.insert,
@@ -220,6 +224,8 @@ pub struct RewardTerms {
     pub place: f32,
     /// See the module table.
     pub release: f32,
+    /// Stack's milestones (0 for every other task; see [`crate::task::stack`]).
+    pub stage: f32,
 }
 
 impl RewardContext {
@@ -255,10 +261,11 @@ impl RewardContext {
 }
 
 impl RewardTerms {
-    /// The dense reward: the terms summed in a fixed order (`release` last, so with its
-    /// default weight of 0 the sum is bit for bit the five-term sum).
+    /// The dense reward: the terms summed in a fixed order (`release`, then `stage` last, so
+    /// with their default weights of 0 the sum is bit for bit the five-term sum: no term is
+    /// negative, and `x + 0.0` is `x` for every `x >= +0.0`).
     pub fn total(&self) -> f32 {
-        self.reach + self.grasp + self.lift + self.carry + self.place + self.release
+        self.reach + self.grasp + self.lift + self.carry + self.place + self.release + self.stage
     }
 }
 
@@ -422,6 +429,7 @@ impl RewardFunction {
                     } else {
                         0.0
                     },
+                    stage: 0.0,
                 };
                 GoalVerdict {
                     distance,

@@ -42,12 +42,29 @@
 //! goal) + `grasp` (either cube squeezed by both fingers) + `lift` (that cube's height above
 //! its floor resting height over the platform's height, clipped to [0, 1]; weight 0 unless
 //! `reward_weights` sets one) + `carry` times the mean of `1 - tanh(5 d_i)` over the two
-//! cubes + `place` once placed, each with its `reward_weights` entry. Without `lift`, lifting
-//! a cube pays only through its distance to a goal 0.2-0.5 m away: PPO from scratch carried
-//! cube1 to its goal in at most 4 % of episodes without it, 14 % with it (`docs/training.md`,
-//! 2026-11-27; neither stacked). The info's
-//! `cube_*` flags describe the pair (released: neither cube touched; at rest: both; on
-//! platform: stacked as above).
+//! cubes + `place` once placed + `stage` times the milestones reached (weight 0 unless
+//! `reward_weights` sets one, below), each with its `reward_weights` entry. Without `lift`,
+//! lifting a cube pays only through its distance to a goal 0.2-0.5 m away: PPO from scratch
+//! carried cube1 to its goal in at most 4 % of episodes without it, 14 % with it
+//! (`docs/training.md`, 2026-11-27; neither stacked). The info's `cube_*` flags describe the
+//! pair (released: neither cube touched; at rest: both; on platform: stacked as above);
+//! `cube1_grasped` is cube1's own grasp.
+//!
+//! ## The `stage` term
+//! Without it the dense reward falls when cube1 reaches its goal: `reach` and `lift` turn to
+//! cube2, still on the floor (about -1.9 with `lift` 1 and cube2 0.3 m away), and letting cube1 go then loses
+//! `grasp` (-1). A policy that climbs the reward learns to hold cube1 just outside the
+//! threshold. `stage` pays its weight once for each milestone reached, in order:
+//!
+//! 1. cube1 within the threshold of its goal;
+//! 2. and not grasped (`cube1_grasped` false);
+//! 3. and cube2 within the threshold of its goal;
+//! 4. and neither cube touched by the robot (`cube_released`).
+//!
+//! With a weight above about 2 (with `lift` 1; the other terms at their defaults), each
+//! milestone pays more than the step to it costs, so every step of the stack, letting go
+//! included, raises the reward. Its inputs are `cube1_grasped` and `cube_released` and the
+//! two distances, so `compute_reward` recomputes it for relabelled goals.
 
 use nalgebra::Vector3;
 use rand::Rng;
@@ -77,8 +94,15 @@ use crate::task::reward::{
     RewardTerms,
 };
 
+/// `cube1_grasped`: cube1's own grasp, an input of the `stage` term.
+const CUBE1_GRASPED: InfoField = info_field(
+    "cube1_grasped",
+    InfoType::Bool,
+    "both fingers squeeze cube1 with at least the grasp force",
+);
+
 /// The task's own info entries.
-const INFO_FIELDS: [InfoField; 11] = [
+const INFO_FIELDS: [InfoField; 13] = [
     IS_GRASPED,
     IS_LIFTED,
     info_field(
@@ -91,6 +115,8 @@ const INFO_FIELDS: [InfoField; 11] = [
     term_field(LIFT),
     term_field(CARRY),
     term_field(PLACE),
+    term_field(STAGE),
+    CUBE1_GRASPED,
     info_field(
         "cube_released",
         InfoType::Bool,
@@ -117,15 +143,29 @@ const LIFT: RewardTerm = RewardTerm {
     ..cube_terms::LIFT
 };
 
+/// `stage`: the milestones of the stack reached, each paying the weight (off by default;
+/// the module documentation).
+const STAGE: RewardTerm = RewardTerm {
+    name: "stage",
+    info_key: "reward_stage",
+    default_weight: 0.0,
+    description: "the weight times the milestones reached, 0 to 4: cube1 within the threshold \
+                  of its goal; and not grasped; and cube2 within the threshold of its goal; and \
+                  neither cube touched by the robot (off by default)",
+};
+
 /// The reward's inputs that `compute_reward` reads back.
-const CONTEXT_KEYS: [&str; 6] = [
+const CONTEXT_KEYS: [&str; 7] = [
     "reward_reach",
     "reward_grasp",
     "reward_lift",
     "cube_released",
     "cube_at_rest",
     "cube_on_platform",
+    "cube1_grasped",
 ];
+/// Where `cube1_grasped` is among [`CONTEXT_KEYS`].
+const CUBE1_GRASPED_KEY: usize = 6;
 
 /// The task's observation slots, after the robot's: five per cube.
 const SLOTS: [SlotSpec; 10] = [
@@ -216,7 +256,7 @@ impl TaskSpec for Stack {
         has_platform: true,
         summary: "stack two cubes on the goal on the platform",
         info_fields: &INFO_FIELDS,
-        reward_terms: &[REACH, GRASP, LIFT, CARRY, PLACE],
+        reward_terms: &[REACH, GRASP, LIFT, CARRY, PLACE, STAGE],
         reward_context_keys: &CONTEXT_KEYS,
     };
 
@@ -273,8 +313,15 @@ impl Stack {
             .unwrap_or_else(|| [ObjectId::first(), ObjectId::first()])
     }
 
-    /// Distances of the two cubes to their goals, success and the reward for one transition.
-    fn judge(&self, achieved: &[f32], desired: &[f32], context: &RewardContext) -> GoalVerdict {
+    /// Distances of the two cubes to their goals, success and the reward for one transition
+    /// (`cube1_grasped`: an input of `stage`).
+    fn judge(
+        &self,
+        achieved: &[f32],
+        desired: &[f32],
+        context: &RewardContext,
+        cube1_grasped: bool,
+    ) -> GoalVerdict {
         let d = [
             RewardFunction::distance(&achieved[..3], &desired[..3]),
             RewardFunction::distance(&achieved[3..], &desired[3..]),
@@ -294,6 +341,7 @@ impl Stack {
                     carry: w.carry as f32 * (closeness(d[0]) + closeness(d[1])) / 2.0,
                     place: if is_placed { w.place as f32 } else { 0.0 },
                     release: 0.0,
+                    stage: w.stage as f32 * milestones(d, threshold, cube1_grasped, context),
                 };
                 (terms.total(), terms)
             }
@@ -306,6 +354,19 @@ impl Stack {
             terms,
         }
     }
+}
+
+/// How many of the `stage` term's milestones (the module documentation) are reached, given
+/// the cubes' distances `d` to their goals.
+fn milestones(d: [f64; 2], threshold: f64, cube1_grasped: bool, context: &RewardContext) -> f32 {
+    let first = d[0] < threshold;
+    let let_go = first && !cube1_grasped;
+    let second = let_go && d[1] < threshold;
+    let released = second && context.cube_released;
+    [first, let_go, second, released]
+        .into_iter()
+        .map(f32::from)
+        .sum()
 }
 
 impl Task for Stack {
@@ -456,12 +517,15 @@ impl Task for Stack {
             cube_on_platform: touch[0].platform && touch[1].touches(c1),
             gripper_opening: view.gripper_opening as f32,
         };
-        let judgement = self.judge(achieved, desired, &context);
+        let cube1_grasped = grasped(&touch[0]);
+        let judgement = self.judge(achieved, desired, &context, cube1_grasped);
+        let mut info = cube_task_info(&INFO_FIELDS, is_grasped, is_lifted, &context, &judgement);
+        info.set(CUBE1_GRASPED.key, cube1_grasped);
         Verdict {
             is_success: judgement.is_success,
             goal_distance: judgement.distance,
             reward: judgement.reward,
-            info: cube_task_info(&INFO_FIELDS, is_grasped, is_lifted, &context, &judgement),
+            info,
         }
     }
 
@@ -482,8 +546,14 @@ impl Task for Stack {
             needs_context,
             out,
             |a, d, row| {
-                self.judge(a, d, &RewardContext::from_row(&CONTEXT_KEYS, row))
-                    .reward
+                let cube1_grasped = row.get(CUBE1_GRASPED_KEY).is_some_and(|&v| v != 0.0);
+                self.judge(
+                    a,
+                    d,
+                    &RewardContext::from_row(&CONTEXT_KEYS, row),
+                    cube1_grasped,
+                )
+                .reward
             },
         )
     }
@@ -500,5 +570,39 @@ mod tests {
             &TaskContext::defaults(Stack::DESCRIPTOR.reward_terms),
         );
         crate::task::observation::assert_documented_layout(&task, include_str!("stack.rs"), 69);
+    }
+
+    #[test]
+    fn the_stage_milestones_count_in_order() {
+        let released = RewardContext {
+            cube_released: true,
+            ..RewardContext::default()
+        };
+        let held = RewardContext::default();
+        let (near, far) = (0.01, 0.2);
+        // Each milestone counts only with the ones before it.
+        assert_eq!(milestones([far, near], 0.05, false, &released), 0.0);
+        assert_eq!(milestones([near, far], 0.05, true, &held), 1.0);
+        assert_eq!(milestones([near, near], 0.05, true, &released), 1.0);
+        assert_eq!(milestones([near, far], 0.05, false, &released), 2.0);
+        assert_eq!(milestones([near, near], 0.05, false, &held), 3.0);
+        assert_eq!(milestones([near, near], 0.05, false, &released), 4.0);
+    }
+
+    #[test]
+    fn the_stage_term_is_off_unless_weighted() {
+        let context = TaskContext {
+            reward_type: RewardType::Dense,
+            ..TaskContext::defaults(Stack::DESCRIPTOR.reward_terms)
+        };
+        let task = Stack::build(&Default::default(), &context);
+        let goals = [0.0f32, 0.0, 0.0, 0.0, 0.0, 0.05];
+        let verdict = task.judge(&goals, &goals, &RewardContext::default(), false);
+        assert_eq!(verdict.terms.stage, 0.0);
+        let mut weighted = context.clone();
+        weighted.reward_weights.stage = 3.0;
+        let task = Stack::build(&Default::default(), &weighted);
+        let verdict = task.judge(&goals, &goals, &RewardContext::default(), false);
+        assert_eq!(verdict.terms.stage, 9.0);
     }
 }

@@ -124,9 +124,12 @@ pub(crate) fn cube_task_info(
             "reward_carry" => info.set_at(i, t.carry),
             "reward_place" => info.set_at(i, t.place),
             "reward_release" => info.set_at(i, t.release),
+            "reward_stage" => info.set_at(i, t.stage),
             "cube_released" => info.set_at(i, context.cube_released),
             "cube_at_rest" => info.set_at(i, context.cube_at_rest),
             "cube_on_platform" => info.set_at(i, context.cube_on_platform),
+            // Stack's own entry, which it sets itself.
+            "cube1_grasped" => {}
             other => debug_assert!(false, "no cube info entry {other:?}"),
         }
     }
