@@ -1,10 +1,13 @@
 #!/bin/sh
-# The run of this record, from the repository's root; PKG: a directory holding the package of
-# this tree (with its native module) for PYTHONPATH. Resumable: `run.sh --resume` continues from
-# the last checkpoint.
+# One run of this record, from the repository's root: `run.sh NAME [--resume]` trains
+# recipe-NAME.yml into runs/ppo-Stack-NAME (log: runs/ppo-Stack-NAME.log); PKG: a directory
+# holding the package of this tree (with its native module) for PYTHONPATH. As run:
+# `run.sh stage3` (stopped by hand after 5 M steps), then `run.sh reach4`.
 set -e
 d=$(dirname "$0")
+name=$1
+shift
 PYTHONPATH=$PKG .venv/bin/panda-rapier train --algo ppo --env-id panda_rapier/StackDense-v0 \
-  --conf $d/recipe.yml --out runs/ppo-Stack-stage --seed 0 --eval-every 1000000 \
+  --conf $d/recipe-$name.yml --out runs/ppo-Stack-$name --seed 0 --eval-every 1000000 \
   --eval-episodes 200 --final best --checkpoint-every 1000000 --quiet "$@" \
-  >> runs/ppo-Stack-stage.log 2>&1
+  >> runs/ppo-Stack-$name.log 2>&1
