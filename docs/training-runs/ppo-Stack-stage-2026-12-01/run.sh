@@ -2,7 +2,8 @@
 # One run of this record, from the repository's root: `run.sh NAME [--resume]` trains
 # recipe-NAME.yml into runs/ppo-Stack-NAME (log: runs/ppo-Stack-NAME.log); PKG: a directory
 # holding the package of this tree (with its native module) for PYTHONPATH. As run:
-# `run.sh stage3` (stopped by hand after 5 M steps), then `run.sh reach4`.
+# `run.sh stage3` (stopped by hand after 5 M steps), `run.sh reach4` (stopped by hand after
+# 2 M), then `run.sh g95`.
 set -e
 d=$(dirname "$0")
 name=$1
