@@ -6,7 +6,8 @@
 use panda_rapier::env::PandaEnv;
 use panda_rapier::policies::{evaluate, ScriptedPolicy};
 use panda_rapier::task::{
-    ControlMode, EnvConfig, InfoValue, ObservationLayout, ResetOptions, RewardType, TaskKind,
+    ControlMode, EnvConfig, InfoValue, ObservationLayout, ResetOptions, RewardType, StackConfig,
+    TaskConfig, TaskKind,
 };
 use panda_rapier::vector::{AutoresetMode, PandaVecEnv};
 use panda_rapier::{ArmFidelity, Error};
@@ -360,6 +361,58 @@ fn stack_s_stage_term_pays_each_milestone_more_than_any_step_before_it() {
         assert_eq!(
             reached, 4,
             "seed {seed}: the expert's stack reached {reached} milestones"
+        );
+    }
+}
+
+/// Stack's start-state curriculum (`task.cube1_on_goal_probability`): cube1 starts resting on
+/// its goal in about that share of episodes and nowhere near it otherwise; at 0 the episodes
+/// are bit for bit the id's; a probability outside [0, 1] is refused by name.
+#[test]
+fn stack_s_cube1_starts_on_its_goal_with_the_curriculum_s_probability() {
+    let with = |p: f64| {
+        let mut config = config(TaskKind::Stack, ControlMode::Ee, RewardType::Dense);
+        config.task = TaskConfig::Stack(StackConfig {
+            cube1_on_goal_probability: p,
+            ..StackConfig::default()
+        });
+        config
+    };
+    let starts = |config: EnvConfig, episodes: u64| {
+        let mut env = PandaEnv::new(config).unwrap();
+        let layout = env.layout().clone();
+        (0..episodes)
+            .map(|seed| {
+                env.reset(Some(seed), &ResetOptions::default()).unwrap();
+                let obs = env.observation();
+                let (a, d) = (&obs[layout.achieved_goal()], &obs[layout.desired_goal()]);
+                let gap = (0..3).map(|i| (a[i] - d[i]).powi(2)).sum::<f32>().sqrt();
+                (gap, obs.iter().map(|x| x.to_bits()).collect::<Vec<_>>())
+            })
+            .collect::<Vec<_>>()
+    };
+    let default = config(TaskKind::Stack, ControlMode::Ee, RewardType::Dense);
+    assert_eq!(starts(with(0.0), 20), starts(default, 20));
+    let on_goal = |p: f64| {
+        let gaps = starts(with(p), 200);
+        assert!(
+            gaps.iter().all(|(g, _)| *g < 1e-3 || *g > 0.05),
+            "p {p}: cube1's distances to its goal {:?}",
+            gaps.iter().map(|(g, _)| g).collect::<Vec<_>>()
+        );
+        gaps.iter().filter(|(g, _)| *g < 1e-3).count()
+    };
+    assert_eq!(on_goal(1.0), 200);
+    let half = on_goal(0.5);
+    assert!((70..=130).contains(&half), "p 0.5: {half} of 200");
+    for bad in [1.5, -0.1, f64::NAN] {
+        let Err(err) = PandaEnv::new(with(bad)) else {
+            panic!("cube1_on_goal_probability {bad} was accepted");
+        };
+        let message = err.to_string();
+        assert!(
+            message.contains("task.cube1_on_goal_probability"),
+            "{message}"
         );
     }
 }
