@@ -1,6 +1,7 @@
 """How far a Stack policy gets: for each model zip given, EPISODES seeded episodes (seeds from
 2,000,000: neither validation's nor the test seeds) of the environment its run record names,
-acted by the native network (deterministic actions), and the share of episodes that reached
+acted by the native network (deterministic actions; a start-state curriculum in the record's
+options, `task.cube1_on_goal_probability`, is dropped: the id's own episodes), and the share of episodes that reached
 each milestone of the `stage` term (env-core/src/task/stack.rs) at some step, with success and
 placed at the episode's end. Run from the repository's root:
 
@@ -28,7 +29,10 @@ NAMES = ["cube1 at goal", "and let go", "cube2 at goal", "both let go"]
 def milestones(path: str) -> dict[str, float]:
     run = read_run_info(path) or {}
     env_id = run.get("env_id", "panda_rapier/StackDense-v0")
-    options = run.get("env_kwargs") or {}
+    options = dict(run.get("env_kwargs") or {})
+    if isinstance(options.get("task"), dict):
+        task = {k: v for k, v in options["task"].items() if k != "cube1_on_goal_probability"}
+        options["task"] = task
     policy = PolicyNetwork.from_zip(path)
     reached = np.zeros((EPISODES, 4), dtype=bool)
     success = np.zeros(EPISODES, dtype=bool)
