@@ -58,11 +58,13 @@ __all__ = [
     "recipe_validation",
     "recipes_train_alike",
     "resolve_validation",
+    "train_env_kwargs",
 ]
 
 #: Algorithms ``panda-rapier train`` knows.
 ALGORITHMS = ("ppo", "sac", "tqc", "bc")
-# Recipe keys that configure the run rather than the algorithm (rl-zoo3's names).
+# Recipe keys that configure the run rather than the algorithm (rl-zoo3's names, and
+# `train_env_kwargs`, ours: rl-zoo3 does not read it).
 # `monitor_kwargs` only matters to rl-zoo3 (its Monitor wrappers); the native VecEnv reports
 # `is_success` and `is_placed` in every info, and the periodic evaluations log both.
 _RUN_KEYS = (
@@ -70,6 +72,7 @@ _RUN_KEYS = (
     "policy",
     "n_envs",
     "env_kwargs",
+    "train_env_kwargs",
     "callback",
     "normalize",
     "monitor_kwargs",
@@ -185,6 +188,8 @@ def load_recipe(algo: str, env_id: str, conf: str | Path | None = None) -> dict[
     for key in _UNSUPPORTED:
         if key in recipe:
             raise ConfigError(f"recipe key {key!r} is not supported by panda-rapier train")
+    if "train_env_kwargs" in recipe:
+        train_env_kwargs(recipe, algo)
     if "normalize" in recipe:
         if algo == "bc":
             raise ConfigError("recipe key 'normalize' is for ppo, sac and tqc, not bc")
@@ -347,6 +352,27 @@ def normalize_settings(value: Any, gamma: Any = None) -> dict[str, Any] | None:
     if not settings["norm_obs"] and not settings["norm_reward"]:
         return None
     return settings
+
+
+def train_env_kwargs(recipe: Mapping[str, Any], algo: str = "ppo") -> dict[str, Any]:
+    """A recipe's ``train_env_kwargs``: environment options for the training environments
+    only, on top of ``env_kwargs`` (a start-state curriculum, such as Stack's
+    ``task.cube1_on_goal_probability``). The periodic evaluations, the run record's
+    ``env_kwargs`` and so the saved model's environment (what ``panda-rapier eval`` acts in)
+    are ``env_kwargs``' alone; the record keeps these under ``train_env_kwargs``. ``{}`` when
+    the recipe has none; anything but a mapping, or the key in a bc recipe, is a
+    :class:`~panda_rapier.errors.ConfigError` naming it."""
+    value = recipe.get("train_env_kwargs")
+    if value is None:
+        return {}
+    if algo == "bc":
+        raise ConfigError("recipe key 'train_env_kwargs' is for ppo, sac and tqc, not bc")
+    if not isinstance(value, Mapping):
+        raise ConfigError(
+            "recipe key 'train_env_kwargs' must be a mapping of environment options (as "
+            f"env_kwargs), got {value!r}"
+        )
+    return dict(value)
 
 
 def recipe_normalization(recipe: Mapping[str, Any]) -> dict[str, Any] | None:

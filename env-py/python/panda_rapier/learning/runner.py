@@ -61,6 +61,7 @@ from .recipes import (
     recipe_callbacks,
     recipe_normalization,
     resolve_validation,
+    train_env_kwargs,
 )
 from .runs import (
     Recorder,
@@ -360,7 +361,13 @@ def _sb3_model(
         state.update(json.loads((out / "checkpoints" / "state.json").read_text()))
     # A resumed run's environments start from seeds its first part never used.
     env_seed = int(run["train_first_seed"]) + int(state["num_timesteps"])
-    env: Any = make_vec_env(env_id, n_envs=n, seed=env_seed, num_threads=num_threads, **options)
+    # Training-only options (a curriculum) on top of the run's; evaluations use the run's.
+    extra = train_env_kwargs(recipe, algo)
+    if extra:
+        run["train_env_kwargs"] = extra
+    env: Any = make_vec_env(
+        env_id, n_envs=n, seed=env_seed, num_threads=num_threads, **{**options, **extra}
+    )
     normalization = recipe_normalization(recipe)
     if normalization is not None:
         if overlap_updates or student is not None:

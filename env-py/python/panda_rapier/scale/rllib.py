@@ -395,6 +395,11 @@ def ppo_config(
     if env_id not in ENV_IDS:
         raise ConfigError(f"unknown environment id {env_id!r}; see panda_rapier.ENV_IDS")
     recipe = load_recipe("ppo", env_id, conf)
+    if recipe.get("train_env_kwargs"):
+        raise ConfigError(
+            "recipe key 'train_env_kwargs' is for stable-baselines3's runs (--backend sb3): "
+            "the RLlib recipe's environment runners and evaluations share env_kwargs"
+        )
     options = {**dict(recipe.get("env_kwargs") or {}), **dict(env_kwargs or {})}
     settings = recipe_training(recipe)
     settings.update(training)
