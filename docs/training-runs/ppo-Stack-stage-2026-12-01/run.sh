@@ -3,7 +3,8 @@
 # recipe-NAME.yml into runs/ppo-Stack-NAME (log: runs/ppo-Stack-NAME.log); PKG: a directory
 # holding the package of this tree (with its native module) for PYTHONPATH. As run:
 # `run.sh stage3` (stopped by hand after 5 M steps), `run.sh reach4` (stopped by hand after
-# 2 M), `run.sh g95` (stopped by hand after 4 M), then `run.sh curriculum`.
+# 2 M), `run.sh g95` (stopped by hand after 4 M), `run.sh curriculum` (stopped by hand after
+# 3 M), then `run.sh carry8`.
 set -e
 d=$(dirname "$0")
 name=$1
