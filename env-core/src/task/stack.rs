@@ -76,6 +76,9 @@
 //! milestones, from at most 3.7 before the first). Its inputs are `cube1_grasped`,
 //! `cube_released` and the two distances, so `compute_reward` recomputes it for relabelled
 //! goals.
+//! PPO from scratch with it placed cube1 and let it go in 95-99 % of episodes within 2-4 M
+//! steps, where without it cube1 reached its goal in at most 14 %; none of those runs stacked
+//! cube2 (`docs/training.md`, 2026-12-01).
 
 use nalgebra::Vector3;
 use rand::Rng;
