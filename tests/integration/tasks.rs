@@ -416,3 +416,79 @@ fn stack_s_cube1_starts_on_its_goal_with_the_curriculum_s_probability() {
         );
     }
 }
+
+/// Stack's `task.reward_distance_rate`: `reach` and `carry` are `1 - tanh(k d)` with the rate
+/// given (5 by default), `compute_reward` recomputes them with it, the episode itself does not
+/// change, and a rate that is not a finite number above 0 is refused by name.
+#[test]
+fn stack_s_reach_and_carry_fall_off_at_the_distance_rate_given() {
+    let with = |rate: f64| {
+        let mut config = config(TaskKind::Stack, ControlMode::Ee, RewardType::Dense);
+        config.task = TaskConfig::Stack(StackConfig {
+            reward_distance_rate: rate,
+            ..StackConfig::default()
+        });
+        config
+    };
+    let threshold = EnvConfig::default().success_threshold;
+    let run = |config: EnvConfig, rate: f32| {
+        let mut env = PandaEnv::new(config).unwrap();
+        let mut policy = ScriptedPolicy::new(env.config()).unwrap();
+        let layout = env.layout().clone();
+        let keys = env.task().descriptor().reward_context_keys;
+        let cube = |k: usize| layout.slot(&format!("cube{k}_relative_position")).unwrap();
+        let closeness = |d: f32| 1.0 - (rate * d).tanh();
+        let norm = |v: &[f32]| v.iter().map(|x| x * x).sum::<f32>().sqrt();
+        let float = |info: &panda_rapier::task::StepInfo, key: &str| match info.get(key) {
+            Some(InfoValue::Float(v)) => v as f32,
+            other => panic!("{key}: {other:?}"),
+        };
+        let (mut bits, mut recomputed) = (Vec::new(), 0);
+        let mut action = vec![0.0; env.action_dim()];
+        env.reset(Some(0), &ResetOptions::default()).unwrap();
+        for step in 0..TaskKind::Stack.descriptor().episode_steps {
+            policy.act(env.observation(), &mut action).unwrap();
+            let t = env.step(&action).unwrap();
+            let obs = env.observation();
+            let (a, g) = (&obs[layout.achieved_goal()], &obs[layout.desired_goal()]);
+            let d = [
+                norm(&[a[0] - g[0], a[1] - g[1], a[2] - g[2]]),
+                norm(&[a[3] - g[3], a[4] - g[4], a[5] - g[5]]),
+            ];
+            let handled = if (d[0] as f64) < threshold { 2 } else { 1 };
+            let reach = closeness(norm(&obs[cube(handled)]));
+            // `carry`'s default weight is 2 (`reach`'s 1): the mean over the two cubes, doubled.
+            let carry = closeness(d[0]) + closeness(d[1]);
+            assert!(
+                (float(&t.info, "reward_reach") - reach).abs() < 1e-4,
+                "step {step}"
+            );
+            assert!(
+                (float(&t.info, "reward_carry") - carry).abs() < 1e-4,
+                "step {step}"
+            );
+            let mut row = vec![0.0f32; keys.len()];
+            t.info.reward_context(keys, &mut row);
+            let mut out = [0.0f32];
+            env.compute_rewards(a, g, &row, &mut out).unwrap();
+            assert_eq!(out[0], t.reward, "step {step}");
+            recomputed += 1;
+            bits.extend(obs.iter().map(|x| x.to_bits()));
+        }
+        assert!(recomputed > 0);
+        bits
+    };
+    let default = run(
+        config(TaskKind::Stack, ControlMode::Ee, RewardType::Dense),
+        5.0,
+    );
+    assert_eq!(run(with(5.0), 5.0), default);
+    assert_eq!(run(with(2.0), 2.0), default);
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let Err(err) = PandaEnv::new(with(bad)) else {
+            panic!("reward_distance_rate {bad} was accepted");
+        };
+        let message = err.to_string();
+        assert!(message.contains("task.reward_distance_rate"), "{message}");
+    }
+}

@@ -367,7 +367,13 @@ pub fn check_batch(
 
 /// `1 - tanh(5 d)`: 1 at the target, 0.5 at 11 cm, fading to 0 beyond half a metre.
 pub fn closeness(distance: f64) -> f32 {
-    (1.0 - (5.0 * distance).tanh()) as f32
+    closeness_at_rate(distance, 5.0)
+}
+
+/// `1 - tanh(rate d)`: [`closeness`] with another rate (per metre). A smaller rate pays, and
+/// slopes, from farther away: with 2, 0.28 at 45 cm where [`closeness`] pays 0.02.
+pub fn closeness_at_rate(distance: f64, rate: f64) -> f32 {
+    (1.0 - (rate * distance).tanh()) as f32
 }
 
 /// The reward function of an environment: its type, success threshold and dense weights.

@@ -45,10 +45,10 @@
 //! `is_success`: both cubes within `success_threshold` of their goals (`goal_distance` is the
 //! larger of the two distances). `is_placed`: besides, no robot link touches either cube, both
 //! are at rest, cube1 touches the platform and cube2 touches cube1. `sparse`: -1 until success,
-//! then 0. `dense`: `reach` (`1 - tanh(5 d)`, `d` from the TCP to the first cube not at its
-//! goal) + `grasp` (either cube squeezed by both fingers) + `lift` (that cube's height above
+//! then 0. `dense`: `reach` (`1 - tanh(k d)`, `d` from the TCP to the first cube not at its
+//! goal, `k` the rate `task.reward_distance_rate`, 5 per metre by default) + `grasp` (either cube squeezed by both fingers) + `lift` (that cube's height above
 //! its floor resting height over the platform's height, clipped to [0, 1]; weight 0 unless
-//! `reward_weights` sets one) + `carry` times the mean of `1 - tanh(5 d_i)` over the two
+//! `reward_weights` sets one) + `carry` times the mean of `1 - tanh(k d_i)` over the two
 //! cubes + `place` once placed + `stage` times the milestones reached (weight 0 unless
 //! `reward_weights` sets one, below), each with its `reward_weights` entry. Without `lift`,
 //! lifting a cube pays only through its distance to a goal 0.2-0.5 m away: PPO from scratch
@@ -79,6 +79,14 @@
 //! PPO from scratch with it placed cube1 and let it go in 95-99 % of episodes within 2-4 M
 //! steps, where without it cube1 reached its goal in at most 14 %; none of those runs stacked
 //! cube2 (`docs/training.md`, 2026-12-01).
+//!
+//! ## The distance rate
+//! `reach` and `carry` at the default rate (5 per metre) are nearly flat beyond 0.4 m: 0.013 at
+//! 0.5 m, sloping 10 times less at 0.45 m than at 0.2 m. Pick-and-place's distances lie within
+//! the steep part; Stack's second pick does not: once cube1 is placed the hand is 0.3-0.45 m
+//! from cube2, and cube2 0.4-0.6 m from its goal. In the runs above the hand stayed by cube1 for
+//! the rest of the episode. `task.reward_distance_rate` 2 pays 0.28 at 0.45 m and slopes
+//! from there, at most 4 times less than at the goal, out to 0.6 m.
 
 use nalgebra::Vector3;
 use rand::Rng;
@@ -105,7 +113,7 @@ use crate::task::context::TaskContext;
 use crate::task::observation::{info_field, InfoField, InfoType};
 use crate::task::reward::cube_terms::{self, CARRY, GRASP, PLACE, REACH};
 use crate::task::reward::{
-    closeness, compute_batch_with, GoalVerdict, RewardContext, RewardFunction, RewardTerm,
+    closeness_at_rate, compute_batch_with, GoalVerdict, RewardContext, RewardFunction, RewardTerm,
     RewardTerms,
 };
 
@@ -225,6 +233,9 @@ const fn cube_slot(name: &'static str, size: usize, description: &'static str) -
     }
 }
 
+/// `task.reward_distance_rate`'s default: [`crate::task::reward::closeness`]'s, panda-gym's.
+const DEFAULT_DISTANCE_RATE: f64 = 5.0;
+
 /// One position per cube.
 const GOAL_DIM: usize = 6;
 /// Gap (m) along y between the halves of `task.cube_region` the two cubes start in.
@@ -248,6 +259,10 @@ pub struct StackConfig {
     /// Probability that an episode starts with cube1 resting on its goal (0: never, the ids'
     /// setting).
     pub cube1_on_goal_probability: f64,
+    /// The rate `k` (per metre) of the dense `reach` and `carry` terms, `1 - tanh(k d)`: 5
+    /// (panda-gym's, the ids' setting) by default. A smaller rate pays, and slopes, from
+    /// farther away (the module documentation).
+    pub reward_distance_rate: f64,
 }
 
 impl Default for StackConfig {
@@ -259,6 +274,7 @@ impl Default for StackConfig {
             cube_yaw_range: CUBE_YAW_RANGE,
             goal_region: PLATFORM_GOAL_REGION,
             cube1_on_goal_probability: 0.0,
+            reward_distance_rate: DEFAULT_DISTANCE_RATE,
         }
     }
 }
@@ -296,6 +312,13 @@ impl TaskSpec for Stack {
             return Err(invalid(
                 "task.cube1_on_goal_probability",
                 format!("must be in [0, 1], got {p}"),
+            ));
+        }
+        let rate = section.reward_distance_rate;
+        if !(rate.is_finite() && rate > 0.0) {
+            return Err(invalid(
+                "task.reward_distance_rate",
+                format!("must be a finite number above 0 (per metre), got {rate}"),
             ));
         }
         validate_platform_regions(
@@ -339,6 +362,11 @@ impl Stack {
             .unwrap_or_else(|| [ObjectId::first(), ObjectId::first()])
     }
 
+    /// `reach` and `carry`'s `1 - tanh(k d)`, `k` the section's `reward_distance_rate`.
+    fn closeness(&self, distance: f64) -> f32 {
+        closeness_at_rate(distance, self.section.reward_distance_rate)
+    }
+
     /// Distances of the two cubes to their goals, success and the reward for one transition
     /// (`cube1_grasped`: an input of `stage`).
     fn judge(
@@ -364,7 +392,7 @@ impl Stack {
                     reach: context.reach,
                     grasp: context.grasp,
                     lift: context.lift,
-                    carry: w.carry as f32 * (closeness(d[0]) + closeness(d[1])) / 2.0,
+                    carry: w.carry as f32 * (self.closeness(d[0]) + self.closeness(d[1])) / 2.0,
                     place: if is_placed { w.place as f32 } else { 0.0 },
                     release: 0.0,
                     stage: w.stage as f32 * milestones(d, threshold, cube1_grasped, context),
@@ -541,7 +569,7 @@ impl Task for Stack {
         );
         let w = &self.context.reward_weights;
         let context = RewardContext {
-            reach: w.reach as f32 * closeness(reach_distance),
+            reach: w.reach as f32 * self.closeness(reach_distance),
             grasp: if is_grasped { w.grasp as f32 } else { 0.0 },
             lift: w.lift as f32 * lift as f32,
             cube_released: !touch[0].robot_touching() && !touch[1].robot_touching(),
