@@ -1,0 +1,13 @@
+#!/bin/sh
+# One run of this record, from the repository's root: `run.sh NAME [--resume]` trains
+# recipe-NAME.yml into runs/ppo-Stack-NAME (log: runs/ppo-Stack-NAME.log); PKG: a directory
+# holding the package of this tree (with its native module) for PYTHONPATH. As run:
+# `run.sh rate2` (stopped by hand after 6 M steps), then `run.sh std25`.
+set -e
+d=$(dirname "$0")
+name=$1
+shift
+PYTHONPATH=$PKG .venv/bin/panda-rapier train --algo ppo --env-id panda_rapier/StackDense-v0 \
+  --conf $d/recipe-$name.yml --out runs/ppo-Stack-$name --seed 0 --eval-every 1000000 \
+  --eval-episodes 200 --final best --checkpoint-every 1000000 --quiet "$@" \
+  >> runs/ppo-Stack-$name.log 2>&1

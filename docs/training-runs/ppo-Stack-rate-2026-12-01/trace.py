@@ -1,0 +1,55 @@
+"""Where a Stack policy's hand and cube2 go: for one model zip, four seeded episodes (seeds
+2,000,000-2,000,003, as milestones.py's first four) of the environment its run record names,
+acted by the native network (deterministic actions), every 15th step and the last: the step,
+the `stage` term, whether a cube is grasped, cube2's distance from the TCP and from its goal,
+and cube2's height (m). Run from the repository's root:
+
+    PYTHONPATH=$PKG .venv/bin/python docs/training-runs/ppo-Stack-rate-2026-12-01/trace.py \
+        runs/ppo-Stack-rate2/checkpoints/ckpt-4000000.zip
+"""
+
+from __future__ import annotations
+
+import sys
+
+import gymnasium as gym
+import numpy as np
+
+from panda_rapier.agents.inference import PolicyNetwork
+from panda_rapier.agents.model_file import read_run_info
+
+FIRST_SEED = 2_000_000
+EVERY = 15
+
+
+def trace(path: str, episodes: int = 4) -> None:
+    run = read_run_info(path) or {}
+    env = gym.make(run.get("env_id", "panda_rapier/StackDense-v0"), **(run.get("env_kwargs") or {}))
+    policy = PolicyNetwork.from_zip(path)
+    keys = list(env.observation_space.spaces)
+    for seed in range(FIRST_SEED, FIRST_SEED + episodes):
+        obs, _ = env.reset(seed=seed)
+        rows, step, done = [], 0, False
+        while not done:
+            flat = np.concatenate([np.asarray(obs[k], dtype=np.float32).ravel() for k in keys])
+            obs, _, terminated, truncated, info = env.step(policy.act(flat[None])[0])
+            step += 1
+            done = terminated or truncated
+            if step % EVERY == 0 or done:
+                cube2 = obs["achieved_goal"][3:]
+                rows.append((
+                    step,
+                    round(float(info["reward_stage"]), 1),
+                    int(info["is_grasped"]),
+                    round(float(np.linalg.norm(obs["observation"][54:57])), 3),
+                    round(float(np.linalg.norm(cube2 - obs["desired_goal"][3:])), 3),
+                    round(float(cube2[2]), 3),
+                ))  # fmt: skip
+        print(seed, rows, flush=True)
+    env.close()
+
+
+if __name__ == "__main__":
+    for path in sys.argv[1:]:
+        print(path)
+        trace(path)
