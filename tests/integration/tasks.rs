@@ -417,21 +417,23 @@ fn stack_s_cube1_starts_on_its_goal_with_the_curriculum_s_probability() {
     }
 }
 
-/// Stack's `task.reward_distance_rate`: `reach` and `carry` are `1 - tanh(k d)` with the rate
-/// given (5 by default), `compute_reward` recomputes them with it, the episode itself does not
-/// change, and a rate that is not a finite number above 0 is refused by name.
+/// Stack's `task.reward_distance_rate` and `task.reach_hover_height`: `reach` and `carry` are
+/// `1 - tanh(k d)` with the rate given (5 by default), `reach` aims `min(h, horizontal
+/// distance)` above the handled cube (0 by default), `compute_reward` recomputes the reward
+/// with them, the episode itself does not change, and values out of range are refused by name.
 #[test]
-fn stack_s_reach_and_carry_fall_off_at_the_distance_rate_given() {
-    let with = |rate: f64| {
+fn stack_s_reach_and_carry_fall_off_at_the_distance_rate_and_hover_height_given() {
+    let with = |rate: f64, hover: f64| {
         let mut config = config(TaskKind::Stack, ControlMode::Ee, RewardType::Dense);
         config.task = TaskConfig::Stack(StackConfig {
             reward_distance_rate: rate,
+            reach_hover_height: hover,
             ..StackConfig::default()
         });
         config
     };
     let threshold = EnvConfig::default().success_threshold;
-    let run = |config: EnvConfig, rate: f32| {
+    let run = |config: EnvConfig, rate: f32, hover: f32| {
         let mut env = PandaEnv::new(config).unwrap();
         let mut policy = ScriptedPolicy::new(env.config()).unwrap();
         let layout = env.layout().clone();
@@ -456,7 +458,9 @@ fn stack_s_reach_and_carry_fall_off_at_the_distance_rate_given() {
                 norm(&[a[3] - g[3], a[4] - g[4], a[5] - g[5]]),
             ];
             let handled = if (d[0] as f64) < threshold { 2 } else { 1 };
-            let reach = closeness(norm(&obs[cube(handled)]));
+            let r = &obs[cube(handled)];
+            let horizontal = norm(&r[..2]);
+            let reach = closeness(norm(&[r[0], r[1], r[2] + hover.min(horizontal)]));
             // `carry`'s default weight is 2 (`reach`'s 1): the mean over the two cubes, doubled.
             let carry = closeness(d[0]) + closeness(d[1]);
             assert!(
@@ -481,14 +485,25 @@ fn stack_s_reach_and_carry_fall_off_at_the_distance_rate_given() {
     let default = run(
         config(TaskKind::Stack, ControlMode::Ee, RewardType::Dense),
         5.0,
+        0.0,
     );
-    assert_eq!(run(with(5.0), 5.0), default);
-    assert_eq!(run(with(2.0), 2.0), default);
-    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        let Err(err) = PandaEnv::new(with(bad)) else {
-            panic!("reward_distance_rate {bad} was accepted");
+    assert_eq!(run(with(5.0, 0.0), 5.0, 0.0), default);
+    assert_eq!(run(with(2.0, 0.0), 2.0, 0.0), default);
+    assert_eq!(run(with(2.0, 0.1), 2.0, 0.1), default);
+    let refused = [
+        (0.0, 0.0),
+        (-1.0, 0.0),
+        (f64::NAN, 0.0),
+        (f64::INFINITY, 0.0),
+    ]
+    .map(|(rate, hover)| (rate, hover, "task.reward_distance_rate"))
+    .into_iter()
+    .chain([-0.1, f64::NAN, f64::INFINITY].map(|h| (5.0, h, "task.reach_hover_height")));
+    for (rate, hover, option) in refused {
+        let Err(err) = PandaEnv::new(with(rate, hover)) else {
+            panic!("rate {rate}, hover height {hover} was accepted");
         };
         let message = err.to_string();
-        assert!(message.contains("task.reward_distance_rate"), "{message}");
+        assert!(message.contains(option), "{message}");
     }
 }

@@ -87,6 +87,14 @@
 //! from cube2, and cube2 0.4-0.6 m from its goal. In the runs above the hand stayed by cube1 for
 //! the rest of the episode. `task.reward_distance_rate` 2 pays 0.28 at 0.45 m and slopes
 //! from there, at most 4 times less than at the goal, out to 0.6 m.
+//!
+//! ## The hover height
+//! With the rate at 2, the hand let cube1 go and then pressed down on the platform beside it
+//! for the rest of the episode: cube2 is on the floor, 0.1 m below the platform's top, so
+//! `reach` pulls the hand down onto the platform, and pressed there it does not slide.
+//! `task.reach_hover_height` `h` makes `reach` aim at the point `min(h, horizontal distance)`
+//! above the handled cube's centre: from afar, `h` above it (for `h` 0.1, level with the
+//! platform's top), and down onto it as the hand comes over it.
 
 use nalgebra::Vector3;
 use rand::Rng;
@@ -263,6 +271,10 @@ pub struct StackConfig {
     /// (panda-gym's, the ids' setting) by default. A smaller rate pays, and slopes, from
     /// farther away (the module documentation).
     pub reward_distance_rate: f64,
+    /// How high (m) above the handled cube `reach` aims while the hand is away from it: the
+    /// point `min(h, horizontal distance)` above the cube's centre (0, the cube's centre
+    /// itself: the ids' setting; the module documentation).
+    pub reach_hover_height: f64,
 }
 
 impl Default for StackConfig {
@@ -275,6 +287,7 @@ impl Default for StackConfig {
             goal_region: PLATFORM_GOAL_REGION,
             cube1_on_goal_probability: 0.0,
             reward_distance_rate: DEFAULT_DISTANCE_RATE,
+            reach_hover_height: 0.0,
         }
     }
 }
@@ -319,6 +332,13 @@ impl TaskSpec for Stack {
             return Err(invalid(
                 "task.reward_distance_rate",
                 format!("must be a finite number above 0 (per metre), got {rate}"),
+            ));
+        }
+        let hover = section.reach_hover_height;
+        if !(hover.is_finite() && hover >= 0.0) {
+            return Err(invalid(
+                "task.reach_hover_height",
+                format!("must be a finite number of metres, 0 or more, got {hover}"),
             ));
         }
         validate_platform_regions(
@@ -421,6 +441,18 @@ fn milestones(d: [f64; 2], threshold: f64, cube1_grasped: bool, context: &Reward
         .into_iter()
         .map(f32::from)
         .sum()
+}
+
+/// The distance `reach` measures, given the handled cube's centre minus the TCP position: to
+/// the centre, or with a hover height `h` above 0 to the point `min(h, horizontal distance)`
+/// above it.
+fn reach_distance(relative: &[f32], hover: f64) -> f64 {
+    if hover == 0.0 {
+        return norm(relative);
+    }
+    let horizontal = norm(&relative[..2]);
+    let up = relative[2] as f64 + hover.min(horizontal);
+    horizontal.hypot(up)
 }
 
 impl Task for Stack {
@@ -560,7 +592,10 @@ impl Task for Stack {
         let first_done = RewardFunction::distance(&achieved[..3], &desired[..3])
             < self.context.success_threshold;
         let handled = usize::from(first_done);
-        let reach_distance = norm(slot(handled, RELATIVE_POSITION));
+        let reach_distance = reach_distance(
+            slot(handled, RELATIVE_POSITION),
+            self.section.reach_hover_height,
+        );
         let (size, _, _) = view.sim.object_properties([c1, c2][handled]);
         let lift = lift_fraction(
             achieved[3 * handled + 2] as f64,
