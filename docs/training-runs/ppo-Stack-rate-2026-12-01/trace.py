@@ -2,10 +2,12 @@
 2,000,000-2,000,003, as milestones.py's first four) of the environment its run record names,
 acted by the native network (deterministic actions), every 15th step and the last: the step,
 the `stage` term, whether a cube is grasped, cube2's distance from the TCP and from its goal,
-and cube2's height (m). Run from the repository's root:
+and cube2's height (m). With ``--actions`` instead, three episodes' steps 50 and 100: the
+action (x, y, z, gripper), the TCP, the gripper's width, the cubes' centres and the reward.
+Run from the repository's root:
 
     PYTHONPATH=$PKG .venv/bin/python docs/training-runs/ppo-Stack-rate-2026-12-01/trace.py \
-        runs/ppo-Stack-rate2/checkpoints/ckpt-4000000.zip
+        [--actions] runs/ppo-Stack-rate2/checkpoints/ckpt-4000000.zip
 """
 
 from __future__ import annotations
@@ -20,6 +22,36 @@ from panda_rapier.agents.model_file import read_run_info
 
 FIRST_SEED = 2_000_000
 EVERY = 15
+
+
+def actions(path: str, episodes: int = 3) -> None:
+    run = read_run_info(path) or {}
+    env = gym.make(run.get("env_id", "panda_rapier/StackDense-v0"), **(run.get("env_kwargs") or {}))
+    policy = PolicyNetwork.from_zip(path)
+    keys = list(env.observation_space.spaces)
+    for seed in range(FIRST_SEED, FIRST_SEED + episodes):
+        obs, _ = env.reset(seed=seed)
+        for step in range(1, 101):
+            flat = np.concatenate([np.asarray(obs[k], dtype=np.float32).ravel() for k in keys])
+            action = policy.act(flat[None])[0]
+            obs, reward, *_ = env.step(action)
+            if step in (50, 100):
+                o, g = obs["observation"], obs["achieved_goal"]
+                tcp, width = o[18:21].round(3), o[24].round(3)
+                cubes = ("cube1", g[:3].round(3), "cube2", g[3:].round(3))
+                print(
+                    seed,
+                    step,
+                    action.round(2),
+                    "tcp",
+                    tcp,
+                    "w",
+                    width,
+                    *cubes,
+                    "r",
+                    round(float(reward), 2),
+                )
+    env.close()
 
 
 def trace(path: str, episodes: int = 4) -> None:
@@ -37,19 +69,22 @@ def trace(path: str, episodes: int = 4) -> None:
             done = terminated or truncated
             if step % EVERY == 0 or done:
                 cube2 = obs["achieved_goal"][3:]
-                rows.append((
-                    step,
-                    round(float(info["reward_stage"]), 1),
-                    int(info["is_grasped"]),
-                    round(float(np.linalg.norm(obs["observation"][54:57])), 3),
-                    round(float(np.linalg.norm(cube2 - obs["desired_goal"][3:])), 3),
-                    round(float(cube2[2]), 3),
-                ))  # fmt: skip
+                rows.append(
+                    (
+                        step,
+                        round(float(info["reward_stage"]), 1),
+                        int(info["is_grasped"]),
+                        round(float(np.linalg.norm(obs["observation"][54:57])), 3),
+                        round(float(np.linalg.norm(cube2 - obs["desired_goal"][3:])), 3),
+                        round(float(cube2[2]), 3),
+                    )
+                )
         print(seed, rows, flush=True)
     env.close()
 
 
 if __name__ == "__main__":
-    for path in sys.argv[1:]:
+    show_actions = "--actions" in sys.argv[1:]
+    for path in [a for a in sys.argv[1:] if a != "--actions"]:
         print(path)
-        trace(path)
+        (actions if show_actions else trace)(path)
