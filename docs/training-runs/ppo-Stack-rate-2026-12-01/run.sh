@@ -3,7 +3,8 @@
 # recipe-NAME.yml into runs/ppo-Stack-NAME (log: runs/ppo-Stack-NAME.log); PKG: a directory
 # holding the package of this tree (with its native module) for PYTHONPATH. As run:
 # `run.sh rate2` (stopped by hand after 6 M steps), `run.sh std25` (stopped by hand after 4 M;
-# two builds, about 2 minutes, ran beside its fourth million), then `run.sh hover`.
+# two builds, about 2 minutes, ran beside its fourth million), `run.sh hover` (stopped by hand
+# after 2 M), then `run.sh hover20`.
 set -e
 d=$(dirname "$0")
 name=$1
