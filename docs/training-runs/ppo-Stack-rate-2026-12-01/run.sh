@@ -5,7 +5,8 @@
 # `run.sh rate2` (stopped by hand after 6 M steps), `run.sh std25` (stopped by hand after 4 M;
 # two builds, about 2 minutes, ran beside its fourth million), `run.sh hover` (stopped by hand
 # after 2 M), `run.sh hover20` (stopped by hand after 6 M; its 6 M checkpoint copied to
-# /work/hover20-6M.zip), then `run.sh hover-reach4 --init-from /work/hover20-6M.zip`.
+# /work/hover20-6M.zip), `run.sh hover-reach4 --init-from /work/hover20-6M.zip` (stopped by
+# hand after 2 M), then `run.sh hover20 --resume` (from its 6 M checkpoint).
 set -e
 d=$(dirname "$0")
 name=$1
