@@ -8,10 +8,6 @@
 # /work/hover20-6M.zip), `run.sh hover-reach4 --init-from /work/hover20-6M.zip` (stopped by
 # hand after 2 M), then `run.sh hover20 --resume` (from its 6 M checkpoint).
 set -e
+# The previous record's run.sh, with this record's recipes.
 d=$(dirname "$0")
-name=$1
-shift
-PYTHONPATH=$PKG .venv/bin/panda-rapier train --algo ppo --env-id panda_rapier/StackDense-v0 \
-  --conf $d/recipe-$name.yml --out runs/ppo-Stack-$name --seed 0 --eval-every 1000000 \
-  --eval-episodes 200 --final best --checkpoint-every 1000000 --quiet "$@" \
-  >> runs/ppo-Stack-$name.log 2>&1
+RECIPES=$d exec "$d/../ppo-Stack-stage-2026-12-01/run.sh" "$@"

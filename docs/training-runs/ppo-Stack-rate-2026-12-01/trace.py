@@ -13,6 +13,8 @@ Run from the repository's root:
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -24,16 +26,26 @@ FIRST_SEED = 2_000_000
 EVERY = 15
 
 
-def actions(path: str, episodes: int = 3) -> None:
+def _load(path: str) -> tuple[gym.Env, Callable[[Any], np.ndarray]]:
+    """The environment the run record names, and the network acting on its dict observations."""
     run = read_run_info(path) or {}
     env = gym.make(run.get("env_id", "panda_rapier/StackDense-v0"), **(run.get("env_kwargs") or {}))
     policy = PolicyNetwork.from_zip(path)
     keys = list(env.observation_space.spaces)
+
+    def act(obs: Any) -> np.ndarray:
+        flat = np.concatenate([np.asarray(obs[k], dtype=np.float32).ravel() for k in keys])
+        return policy.act(flat[None])[0]
+
+    return env, act
+
+
+def actions(path: str, episodes: int = 3) -> None:
+    env, act = _load(path)
     for seed in range(FIRST_SEED, FIRST_SEED + episodes):
         obs, _ = env.reset(seed=seed)
         for step in range(1, 101):
-            flat = np.concatenate([np.asarray(obs[k], dtype=np.float32).ravel() for k in keys])
-            action = policy.act(flat[None])[0]
+            action = act(obs)
             obs, reward, *_ = env.step(action)
             if step in (50, 100):
                 o, g = obs["observation"], obs["achieved_goal"]
@@ -55,16 +67,12 @@ def actions(path: str, episodes: int = 3) -> None:
 
 
 def trace(path: str, episodes: int = 4) -> None:
-    run = read_run_info(path) or {}
-    env = gym.make(run.get("env_id", "panda_rapier/StackDense-v0"), **(run.get("env_kwargs") or {}))
-    policy = PolicyNetwork.from_zip(path)
-    keys = list(env.observation_space.spaces)
+    env, act = _load(path)
     for seed in range(FIRST_SEED, FIRST_SEED + episodes):
         obs, _ = env.reset(seed=seed)
         rows, step, done = [], 0, False
         while not done:
-            flat = np.concatenate([np.asarray(obs[k], dtype=np.float32).ravel() for k in keys])
-            obs, _, terminated, truncated, info = env.step(policy.act(flat[None])[0])
+            obs, _, terminated, truncated, info = env.step(act(obs))
             step += 1
             done = terminated or truncated
             if step % EVERY == 0 or done:

@@ -6,7 +6,8 @@
 # 2 M), `run.sh g95` (stopped by hand after 4 M), `run.sh curriculum` (stopped by hand after
 # 3 M), then `run.sh carry8`.
 set -e
-d=$(dirname "$0")
+# RECIPES: the directory of recipe-NAME.yml (this one's unless set; the next record's run.sh sets it).
+d=${RECIPES:-$(dirname "$0")}
 name=$1
 shift
 PYTHONPATH=$PKG .venv/bin/panda-rapier train --algo ppo --env-id panda_rapier/StackDense-v0 \
