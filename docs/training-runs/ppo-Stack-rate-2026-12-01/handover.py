@@ -13,7 +13,6 @@ from __future__ import annotations
 import sys
 
 import gymnasium as gym
-import numpy as np
 
 import panda_rapier
 from panda_rapier.agents.inference import PolicyNetwork
@@ -28,13 +27,11 @@ def handover(path: str) -> None:
     env = gym.make(run.get("env_id", "panda_rapier/StackDense-v0"), **(run.get("env_kwargs") or {}))
     policy = PolicyNetwork.from_zip(path)
     expert = panda_rapier.ScriptedPolicy(env.unwrapped.config)
-    keys = list(env.observation_space.spaces)
     obs, _ = env.reset(seed=SEED)
     rewards: list[float] = []
     for step in range(env.spec.max_episode_steps or 150):
-        flat = np.concatenate([np.asarray(obs[k], dtype=np.float32).ravel() for k in keys])
         actor = policy.act if step < STEPS else expert
-        obs, reward, terminated, truncated, _ = env.step(actor(flat[None])[0])
+        obs, reward, terminated, truncated, _ = env.step(actor(obs))
         if step >= STEPS - 1:
             rewards.append(round(float(reward), 2))
         if terminated or truncated:

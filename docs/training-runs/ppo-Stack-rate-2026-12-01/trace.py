@@ -27,17 +27,10 @@ EVERY = 15
 
 
 def _load(path: str) -> tuple[gym.Env, Callable[[Any], np.ndarray]]:
-    """The environment the run record names, and the network acting on its dict observations."""
+    """The environment the run record names, and the network acting on its goal dicts."""
     run = read_run_info(path) or {}
     env = gym.make(run.get("env_id", "panda_rapier/StackDense-v0"), **(run.get("env_kwargs") or {}))
-    policy = PolicyNetwork.from_zip(path)
-    keys = list(env.observation_space.spaces)
-
-    def act(obs: Any) -> np.ndarray:
-        flat = np.concatenate([np.asarray(obs[k], dtype=np.float32).ravel() for k in keys])
-        return policy.act(flat[None])[0]
-
-    return env, act
+    return env, PolicyNetwork.from_zip(path).act
 
 
 def actions(path: str, episodes: int = 3) -> None:

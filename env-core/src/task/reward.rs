@@ -365,9 +365,12 @@ pub fn check_batch(
     Ok(n)
 }
 
+/// [`closeness`]'s rate (per metre), panda-gym's.
+pub const CLOSENESS_RATE: f64 = 5.0;
+
 /// `1 - tanh(5 d)`: 1 at the target, 0.5 at 11 cm, fading to 0 beyond half a metre.
 pub fn closeness(distance: f64) -> f32 {
-    closeness_at_rate(distance, 5.0)
+    closeness_at_rate(distance, CLOSENESS_RATE)
 }
 
 /// `1 - tanh(rate d)`: [`closeness`] with another rate (per metre). A smaller rate pays, and

@@ -46,11 +46,12 @@
 //! larger of the two distances). `is_placed`: besides, no robot link touches either cube, both
 //! are at rest, cube1 touches the platform and cube2 touches cube1. `sparse`: -1 until success,
 //! then 0. `dense`: `reach` (`1 - tanh(k d)`, `d` from the TCP to the first cube not at its
-//! goal, `k` the rate `task.reward_distance_rate`, 5 per metre by default) + `grasp` (either cube squeezed by both fingers) + `lift` (that cube's height above
-//! its floor resting height over the platform's height, clipped to [0, 1]; weight 0 unless
-//! `reward_weights` sets one) + `carry` times the mean of `1 - tanh(k d_i)` over the two
-//! cubes + `place` once placed + `stage` times the milestones reached (weight 0 unless
-//! `reward_weights` sets one, below), each with its `reward_weights` entry. Without `lift`,
+//! goal, `k` the rate `task.reward_distance_rate`, 5 per metre by default) + `grasp` (either
+//! cube squeezed by both fingers) + `lift` (that cube's height above its floor resting height
+//! over the platform's height, clipped to [0, 1]; weight 0 unless `reward_weights` sets
+//! one) + `carry` times the mean of `1 - tanh(k d_i)` over the two cubes + `place` once
+//! placed + `stage` times the milestones reached (weight 0 unless `reward_weights` sets one,
+//! below), each with its `reward_weights` entry. Without `lift`,
 //! lifting a cube pays only through its distance to a goal 0.2-0.5 m away: PPO from scratch
 //! carried cube1 to its goal in at most 4 % of episodes without it, 14 % with it
 //! (`docs/training.md`, 2026-11-27; neither stacked). The info's `cube_*` flags describe the
@@ -128,7 +129,7 @@ use crate::task::observation::{info_field, InfoField, InfoType};
 use crate::task::reward::cube_terms::{self, CARRY, GRASP, PLACE, REACH};
 use crate::task::reward::{
     closeness_at_rate, compute_batch_with, GoalVerdict, RewardContext, RewardFunction, RewardTerm,
-    RewardTerms,
+    RewardTerms, CLOSENESS_RATE,
 };
 
 /// `cube1_grasped`: cube1's own grasp, an input of the `stage` term.
@@ -247,9 +248,6 @@ const fn cube_slot(name: &'static str, size: usize, description: &'static str) -
     }
 }
 
-/// `task.reward_distance_rate`'s default: [`crate::task::reward::closeness`]'s, panda-gym's.
-const DEFAULT_DISTANCE_RATE: f64 = 5.0;
-
 /// One position per cube.
 const GOAL_DIM: usize = 6;
 /// Gap (m) along y between the halves of `task.cube_region` the two cubes start in.
@@ -292,7 +290,7 @@ impl Default for StackConfig {
             cube_yaw_range: CUBE_YAW_RANGE,
             goal_region: PLATFORM_GOAL_REGION,
             cube1_on_goal_probability: 0.0,
-            reward_distance_rate: DEFAULT_DISTANCE_RATE,
+            reward_distance_rate: CLOSENESS_RATE,
             reach_hover_height: 0.0,
         }
     }
@@ -453,6 +451,7 @@ fn milestones(d: [f64; 2], threshold: f64, cube1_grasped: bool, context: &Reward
 /// the centre, or with a hover height `h` above 0 to the point `min(h, horizontal distance)`
 /// above it.
 fn reach_distance(relative: &[f32], hover: f64) -> f64 {
+    // The ids' own arithmetic at 0, so that their rewards stay bit for bit.
     if hover == 0.0 {
         return norm(relative);
     }
