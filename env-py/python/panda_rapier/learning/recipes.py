@@ -361,7 +361,9 @@ def normalize_settings(value: Any, gamma: Any = None) -> dict[str, Any] | None:
 def train_env_kwargs(recipe: Mapping[str, Any], algo: str = "ppo") -> dict[str, Any]:
     """A recipe's ``train_env_kwargs``: environment options for the training environments
     only, on top of ``env_kwargs`` (a start-state curriculum, such as Stack's
-    ``task.cube1_on_goal_probability``). The periodic evaluations, the run record's
+    ``task.cube1_on_goal_probability``; merged into them by :func:`merge_options`, so a
+    section such as ``task`` keeps the ``env_kwargs`` entries it does not set). The periodic
+    evaluations, the run record's
     ``env_kwargs`` and so the saved model's environment (what ``panda-rapier eval`` acts in)
     are ``env_kwargs``' alone; the record keeps these under ``train_env_kwargs``. ``{}`` when
     the recipe has none; anything but a mapping, or the key in a bc recipe, is a
@@ -377,6 +379,20 @@ def train_env_kwargs(recipe: Mapping[str, Any], algo: str = "ppo") -> dict[str, 
             f"env_kwargs), got {value!r}"
         )
     return dict(value)
+
+
+def merge_options(base: Mapping[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
+    """``base`` with ``extra`` on top, section by section: where both give a mapping under the
+    same key (``task``, ``reward_weights``) the two are merged the same way, ``extra``'s entries
+    winning; any other value of ``extra`` replaces ``base``'s."""
+    merged = dict(base)
+    for key, value in extra.items():
+        below = merged.get(key)
+        if isinstance(value, Mapping) and isinstance(below, Mapping):
+            merged[key] = merge_options(below, value)
+        else:
+            merged[key] = value
+    return merged
 
 
 def recipe_normalization(recipe: Mapping[str, Any]) -> dict[str, Any] | None:

@@ -57,6 +57,7 @@ from .recipes import (
     VALIDATION,
     algorithm_class,
     load_recipe,
+    merge_options,
     model_kwargs,
     recipe_callbacks,
     recipe_normalization,
@@ -366,7 +367,7 @@ def _sb3_model(
     if extra:
         run["train_env_kwargs"] = extra
     env: Any = make_vec_env(
-        env_id, n_envs=n, seed=env_seed, num_threads=num_threads, **{**options, **extra}
+        env_id, n_envs=n, seed=env_seed, num_threads=num_threads, **merge_options(options, extra)
     )
     normalization = recipe_normalization(recipe)
     if normalization is not None:
