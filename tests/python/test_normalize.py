@@ -127,6 +127,51 @@ def test_a_normalize_model_acts_without_its_training_environment(tmp_path: Path)
     np.testing.assert_allclose(native_actions, torch_actions, atol=1e-5)
 
 
+def test_a_run_started_from_a_model_continues_its_statistics(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--init-from`` a normalize run's model: the new run's running statistics start as the
+    model's network holds them (mean, scale squared less epsilon, its env steps as the count),
+    not from the new run's first observations, which would rescale the taken network's
+    inputs."""
+    from panda_rapier.learning.normalization import RunningNormalizer
+
+    started: list[tuple[np.ndarray, np.ndarray, float]] = []
+    start = RunningNormalizer._on_training_start
+
+    def spy(self: RunningNormalizer) -> None:
+        start(self)
+        started.append((self.obs_rms.mean.copy(), self.obs_rms.var.copy(), self.obs_rms.count))
+
+    monkeypatch.setattr(RunningNormalizer, "_on_training_start", spy)
+    from stable_baselines3 import PPO
+
+    from panda_rapier.sb3 import make_vec_env
+
+    recipe = {"policy": "MultiInputPolicy", "normalize": True, "n_steps": 32, "batch_size": 32,
+              "n_epochs": 1, "policy_kwargs": "dict(net_arch=[16])"}  # fmt: skip
+    conf = tmp_path / "ppo.yml"
+    conf.write_text(yaml.safe_dump({ENV_ID: recipe}))
+    first, second = tmp_path / "first", tmp_path / "second"
+    common = ["--conf", str(conf), "--quiet", "--eval-every", "0", "--n-envs", "2"]
+    assert main(["train", "--algo", "ppo", "--env-id", ENV_ID, "--out", str(first),
+                 "--timesteps", "128", *common]) == 0  # fmt: skip
+    taken = PPO.load(first / "model.zip", env=make_vec_env(ENV_ID), device="cpu")
+    mean, scale = _extractor_buffers(taken)[0]
+    taken_file = str(first / "model.zip")
+    assert main(["train", "--algo", "ppo", "--env-id", ENV_ID, "--out", str(second),
+                 "--timesteps", "64", "--init-from", taken_file, *common]) == 0  # fmt: skip
+    assert len(started) == 2
+    fresh_count = started[0][2]  # the first run's: its first observations alone
+    continued_mean, continued_var, count = started[1]
+    assert fresh_count < 3 and count == 128
+    np.testing.assert_array_equal(continued_mean, mean.astype(np.float64))
+    np.testing.assert_allclose(np.sqrt(continued_var + 1e-8), scale, rtol=1e-5)
+    # And so the second run's network still scales the observations about as the first's did.
+    _, scale_after = _extractor_buffers(PPO.load(second / "model.zip", device="cpu"))[0]
+    np.testing.assert_allclose(scale_after, scale, rtol=0.5)
+
+
 @pytest.mark.parametrize(
     ("value", "words"),
     [

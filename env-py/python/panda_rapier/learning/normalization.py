@@ -23,7 +23,9 @@ model: the observations are standardised inside the network by a :class:`Normali
 whose mean and scale :class:`RunningNormalizer` keeps equal to ``VecNormalize``'s running
 statistics at every step (stable-baselines3 stores raw observations and standardises them when
 it samples, so this is the same arithmetic), and rewards are scaled by ``VecNormalize`` itself
-(``norm_obs=False``). The statistics go into the run's checkpoints as data.
+(``norm_obs=False``). The statistics go into the run's checkpoints as data. A run started
+``--init-from`` a model continues that model's statistics (:func:`continued_statistics`)
+instead of starting them afresh.
 """
 
 from __future__ import annotations
@@ -267,12 +269,36 @@ class RunningNormalizer(BaseCallback):
             if self.obs_rms is not None:
                 _rms_load(self.obs_rms, state["obs"])
             vec_normalize = self.model.get_vec_normalize_env()
-            if vec_normalize is not None:
+            # A model's own statistics (``continued_statistics``) have no return's.
+            if vec_normalize is not None and "return" in state:
                 _rms_load(vec_normalize.ret_rms, state["return"])
         except (KeyError, TypeError, ValueError) as error:
             raise InvalidArgumentError(
                 f"the checkpoint's normalisation statistics do not fit the recipe: {error}"
             ) from error
+
+
+def continued_statistics(
+    model: Any, steps: float, settings: Mapping[str, Any]
+) -> dict[str, Any] | None:
+    """The observation statistics ``model``'s :class:`NormalizedFlatten` holds, as
+    :meth:`RunningNormalizer.state` gives them (``restored``): its mean, its scale squared less
+    ``epsilon`` as the variance, and ``steps`` (the observations they were drawn from: the
+    weights' model's env steps) as the count. What a run started ``--init-from`` a model begins
+    with, so that the network it takes sees its observations scaled as it was trained to;
+    without them, :class:`RunningNormalizer` would start from the new run's first
+    observations alone (all episode starts, with almost no spread in most entries) and scale
+    the taken network's inputs by hundreds. ``None`` when there is nothing to continue (no
+    observation statistics in the recipe, or ``steps`` not above 0)."""
+    if not settings.get("norm_obs") or steps <= 0:
+        return None
+    extractors = [m for m in model.policy.modules() if isinstance(m, NormalizedFlatten)]
+    if not extractors:
+        return None
+    mean = extractors[0].mean.detach().cpu().double().numpy()
+    scale = extractors[0].scale.detach().cpu().double().numpy()
+    var = np.maximum(scale**2 - float(settings["epsilon"]), 0.0)
+    return {"obs": {"mean": mean.tolist(), "var": var.tolist(), "count": float(steps)}}
 
 
 def _rms_state(rms: Any) -> dict[str, Any]:

@@ -42,7 +42,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecNormalize
 
-from ..agents.model_file import read_run_info
+from ..agents.model_file import read_model_file, read_run_info
 from ..agents.student_model import policy_kwargs, student_architecture
 from ..errors import ConfigError, InvalidArgumentError
 from ..pixels import plain_observation, split_options
@@ -51,7 +51,7 @@ from ..sb3 import make_vec_env
 from ..seeds import TRAIN_FIRST_SEED, TRAIN_SEED_STRIDE
 from . import checkpoint
 from .imitation import train_bc
-from .normalization import RunningNormalizer
+from .normalization import RunningNormalizer, continued_statistics
 from .phases import PhaseClock, describe_split
 from .recipes import (
     VALIDATION,
@@ -233,6 +233,10 @@ def train(
         student, stock_sb3, overlap_updates, checkpoint_every,
     )  # fmt: skip
     _start_weights(model, out, resume, trust, init_from, say)
+    if init_from is not None and run.get("normalize") is not None:
+        # The taken network's observation statistics, continued (not started afresh).
+        steps = float(read_model_file(init_from)[0].get("num_timesteps") or 0)
+        state["normalize"] = continued_statistics(model, steps, run["normalize"])
     recorder = Recorder(
         out,
         config,
@@ -455,7 +459,8 @@ def _learn(
     normalization = run.get("normalize")
     normalizer = None
     if normalization is not None:  # first: the step's statistics before evaluations
-        normalizer = RunningNormalizer(normalization, state.get("normalize") if resume else None)
+        # A resumed run's statistics, or those an --init-from run continues (`train`).
+        normalizer = RunningNormalizer(normalization, state.get("normalize"))
     periodic = _sb3_callback(
         recorder, eval_every or 0, checkpoint_every or 0, state, patience, stop_at, split,
         on_checkpoint, normalizer,
