@@ -6,7 +6,10 @@ each milestone of the `stage` term (env-core/src/task/stack.rs) at some step, wi
 placed at the episode's end. Run from the repository's root:
 
     PYTHONPATH=$PKG .venv/bin/python docs/training-runs/ppo-Stack-stage-2026-12-01/milestones.py \
-        runs/ppo-Stack-stage/best.zip [more.zip ...]
+        [--cube1-on-goal P] runs/ppo-Stack-stage/best.zip [more.zip ...]
+
+With ``--cube1-on-goal P`` the episodes start with cube1 resting on its goal with probability
+P (the curriculum's own episodes at 1) instead of the id's own episodes.
 """
 
 from __future__ import annotations
@@ -26,13 +29,19 @@ THRESHOLD = 0.05
 NAMES = ["cube1 at goal", "and let go", "cube2 at goal", "both let go"]
 
 
-def milestones(path: str) -> dict[str, float]:
+def milestones(path: str, on_goal: float | None = None) -> dict[str, float]:
     run = read_run_info(path) or {}
     env_id = run.get("env_id", "panda_rapier/StackDense-v0")
     options = dict(run.get("env_kwargs") or {})
     if isinstance(options.get("task"), dict):
         task = {k: v for k, v in options["task"].items() if k != "cube1_on_goal_probability"}
         options["task"] = task
+    if on_goal is not None:
+        options["task"] = {
+            "name": "stack",
+            **options.get("task", {}),
+            "cube1_on_goal_probability": on_goal,
+        }
     policy = PolicyNetwork.from_zip(path)
     reached = np.zeros((EPISODES, 4), dtype=bool)
     success = np.zeros(EPISODES, dtype=bool)
@@ -73,6 +82,10 @@ def milestones(path: str) -> dict[str, float]:
 
 
 if __name__ == "__main__":
-    for path in sys.argv[1:]:
-        result = milestones(path)
+    paths = sys.argv[1:]
+    on_goal = None
+    if paths[:1] == ["--cube1-on-goal"]:
+        on_goal, paths = float(paths[1]), paths[2:]
+    for path in paths:
+        result = milestones(path, on_goal)
         print(path, "  ".join(f"{k}: {v:.3f}" for k, v in result.items()), flush=True)
