@@ -288,8 +288,8 @@ def continued_statistics(
     with, so that the network it takes sees its observations scaled as it was trained to;
     without them, :class:`RunningNormalizer` would start from the new run's first
     observations alone (all episode starts, with almost no spread in most entries) and scale
-    the taken network's inputs up by thousands (then clipped). ``None`` when there is nothing to continue (no
-    observation statistics in the recipe, or ``steps`` not above 0)."""
+    the taken network's inputs up by thousands (then clipped). ``None`` when there is nothing
+    to continue (no observation statistics in the recipe, or ``steps`` not above 0)."""
     if not settings.get("norm_obs") or steps <= 0:
         return None
     extractors = [m for m in model.policy.modules() if isinstance(m, NormalizedFlatten)]
