@@ -1,9 +1,13 @@
 """How far a Stack policy gets: for each model zip given, EPISODES seeded episodes (seeds from
 2,000,000: neither validation's nor the test seeds) of the environment its run record names,
 acted by the native network (deterministic actions; a start-state curriculum in the record's
-options, `task.cube1_on_goal_probability`, is dropped: the id's own episodes), and the share of episodes that reached
-each milestone of the `stage` term (env-core/src/task/stack.rs) at some step, with success and
-placed at the episode's end. Run from the repository's root:
+options, `task.cube1_on_goal_probability`, is dropped: the id's own episodes), and the share
+of episodes that reached each milestone of the `stage` term (env-core/src/task/stack.rs) at
+some step, with success and placed at the episode's end, and where cube2 was the first time it
+reached its goal (the third milestone): the medians, over the episodes that reached it, of its
+height above its goal and its distance beside it, in centimetres; and the share of episodes in
+which cube2 came within 2 cm of its goal (PRECISE) after cube1 was let go on its goal. Run from
+the repository's root:
 
     PYTHONPATH=$PKG .venv/bin/python docs/training-runs/ppo-Stack-stage-2026-12-01/milestones.py \
         [--cube1-on-goal P] runs/ppo-Stack-stage/best.zip [more.zip ...]
@@ -26,6 +30,7 @@ EPISODES = 200
 ENVS = 50
 FIRST_SEED = 2_000_000
 THRESHOLD = 0.05
+PRECISE = 0.02
 NAMES = ["cube1 at goal", "and let go", "cube2 at goal", "both let go"]
 
 
@@ -46,6 +51,9 @@ def milestones(path: str, on_goal: float | None = None) -> dict[str, float]:
     reached = np.zeros((EPISODES, 4), dtype=bool)
     success = np.zeros(EPISODES, dtype=bool)
     placed = np.zeros(EPISODES, dtype=bool)
+    precise = np.zeros(EPISODES, dtype=bool)
+    # cube2's offset from its goal (x, y, z) at the step it first reached it; NaN: never.
+    offset = np.full((EPISODES, 3), np.nan)
     for first in range(0, EPISODES, ENVS):
         envs = gym.make_vec(env_id, num_envs=ENVS, vectorization_mode="vector_entry_point",
                             autoreset_mode="disabled", **options)  # fmt: skip
@@ -66,6 +74,11 @@ def milestones(path: str, on_goal: float | None = None) -> dict[str, float]:
             second = let_go & (d[:, 1] < THRESHOLD)
             both = second & np.asarray(info["cube_released"], dtype=bool)
             live = ~done
+            new = second & live & ~reached[rows, 2]
+            o = offset[rows]
+            o[new] = (obs["achieved_goal"] - obs["desired_goal"])[new, 3:]
+            offset[rows] = o
+            precise[rows] |= let_go & (d[:, 1] < PRECISE) & live
             for k, m in enumerate([first_at, let_go, second, both]):
                 reached[rows, k] |= m & live
             ending = live & (terminated | truncated)
@@ -78,6 +91,11 @@ def milestones(path: str, on_goal: float | None = None) -> dict[str, float]:
     out = {name: float(reached[:, k].mean()) for k, name in enumerate(NAMES)}
     out["success at the end"] = float(success.mean())
     out["placed at the end"] = float(placed.mean())
+    held = offset[~np.isnan(offset[:, 0])]
+    if len(held):
+        out["cube2 above (cm)"] = float(np.median(held[:, 2]) * 100)
+        out["beside (cm)"] = float(np.median(np.linalg.norm(held[:, :2], axis=1)) * 100)
+    out["cube2 within 2 cm"] = float(precise.mean())
     return out
 
 

@@ -1,0 +1,109 @@
+"""Would a Stack policy's cube2 stay on the stack if it were let go? For each model zip given,
+EPISODES seeded episodes (seeds from 2,000,000, as the night record's milestones.py) starting
+with cube1 on its goal, acted by the native network (deterministic actions) until cube2 first
+comes within WITHIN metres of its goal with cube1 let go; from that step on the hand is made to
+let go: SETTLE steps of standing still with the gripper closed (0 unless `--settle` says), then
+OPEN_STEPS steps of standing still with the gripper opening, then up with the gripper open to
+the episode's end. Printed: the share of episodes that reached that moment, the median
+speed of the hand then (cm/s; the expert lets go only below 1 cm/s sideways), and of those
+episodes the share placed and successful at the end. Run from the repository's root:
+
+    .venv/bin/python docs/training-runs/ppo-Stack-tight-2026-12-02/release.py \
+        [--within 0.02] [--settle 5] runs/ppo-Stack-second/ckpt-4000000.zip [more.zip ...]
+"""
+
+from __future__ import annotations
+
+import sys
+
+import gymnasium as gym
+import numpy as np
+
+from panda_rapier.agents.inference import PolicyNetwork
+from panda_rapier.agents.model_file import read_run_info
+
+EPISODES = 200
+ENVS = 50
+FIRST_SEED = 2_000_000
+OPEN_STEPS = 10
+# Action: hand displacement x, y, z, then the gripper (+1 opens it).
+STAND_CLOSED = np.array([0.0, 0.0, 0.0, -1.0], dtype=np.float32)
+STAND_OPEN = np.array([0.0, 0.0, 0.0, 1.0], dtype=np.float32)
+UP_OPEN = np.array([0.0, 0.0, 1.0, 1.0], dtype=np.float32)
+
+
+def flatten(obs: dict[str, np.ndarray], keys: list[str]) -> np.ndarray:
+    """Gymnasium's flat rows of a goal dict: the dict space's keys in order."""
+    return np.concatenate([np.asarray(obs[k], dtype=np.float32).reshape(ENVS, -1) for k in keys], 1)
+
+
+def release(path: str, within: float, settle: int = 0) -> dict[str, float]:
+    run = read_run_info(path) or {}
+    env_id = run.get("env_id", "panda_rapier/StackDense-v0")
+    options = dict(run.get("env_kwargs") or {})
+    options["task"] = {"name": "stack", **options.get("task", {}), "cube1_on_goal_probability": 1.0}
+    policy = PolicyNetwork.from_zip(path)
+    forced = np.zeros(EPISODES, dtype=bool)
+    placed = np.zeros(EPISODES, dtype=bool)
+    success = np.zeros(EPISODES, dtype=bool)
+    speed = np.full(EPISODES, np.nan)
+    for first in range(0, EPISODES, ENVS):
+        envs = gym.make_vec(env_id, num_envs=ENVS, vectorization_mode="vector_entry_point",
+                            autoreset_mode="disabled", **options)  # fmt: skip
+        tcp_velocity = envs.schema.slot("tcp_velocity")
+        keys = list(envs.single_observation_space.spaces)
+        obs, _ = envs.reset(seed=[FIRST_SEED + first + i for i in range(ENVS)])
+        done = np.zeros(ENVS, dtype=bool)
+        since = np.full(ENVS, -1)  # steps since the release began; -1: not begun
+        rows = slice(first, first + ENVS)
+        while not done.all():
+            action = policy.act(flatten(obs, keys))
+            begun = since >= 0
+            t = since[begun][:, None]
+            action[begun] = np.where(
+                t < settle, STAND_CLOSED, np.where(t < settle + OPEN_STEPS, STAND_OPEN, UP_OPEN)
+            )
+            obs, _, terminated, truncated, info = envs.step(action)
+            since[begun] += 1
+            d = np.linalg.norm(
+                (obs["achieved_goal"] - obs["desired_goal"]).reshape(ENVS, 2, 3), axis=2
+            )
+            let_go = (d[:, 0] < 0.05) & ~np.asarray(info["cube1_grasped"], dtype=bool)
+            begins = ~begun & ~done & let_go & (d[:, 1] < within)
+            since[begins] = 0
+            v = speed[rows]
+            v[begins] = np.linalg.norm(flatten(obs, keys)[begins, tcp_velocity], axis=1) * 100
+            speed[rows] = v
+            ending = ~done & (terminated | truncated)
+            f, s, p = forced[rows], success[rows], placed[rows]
+            f[ending] = since[ending] >= 0
+            s[ending] = np.asarray(info["is_success"], dtype=bool)[ending]
+            p[ending] = np.asarray(info["is_placed"], dtype=bool)[ending]
+            forced[rows], success[rows], placed[rows] = f, s, p
+            done |= terminated | truncated
+        envs.close()
+    n = max(int(forced.sum()), 1)
+    return {
+        "let go": float(forced.mean()),
+        "hand speed (cm/s)": float(np.nanmedian(speed)) if forced.any() else float("nan"),
+        "then placed": float(placed[forced].sum() / n),
+        "then success": float(success[forced].sum() / n),
+    }
+
+
+if __name__ == "__main__":
+    paths = sys.argv[1:]
+    within, settle = 0.05, 0
+    while paths[:1] in (["--within"], ["--settle"]):
+        if paths[0] == "--within":
+            within = float(paths[1])
+        else:
+            settle = int(paths[1])
+        paths = paths[2:]
+    for path in paths:
+        result = release(path, within, settle)
+        print(
+            path,
+            f"within {within}, settle {settle}:",
+            "  ".join(f"{k}: {v:.3f}" for k, v in result.items()),
+        )

@@ -1,0 +1,41 @@
+#!/bin/sh
+# The runs of this record, from the repository's root: `run.sh [SECOND]` trains
+# recipe-first.yml into runs/ppo-Stack-first (unless that run is there already), then
+# recipe-SECOND.yml (`second` unless given) into runs/ppo-Stack-SECOND started from the first
+# part's last checkpoint (`--init-from`), with the night record's run.sh (logs:
+# runs/ppo-Stack-NAME.log). While they run it keeps every checkpoint as
+# runs/ppo-Stack-NAME/ckpt-STEPS.zip, which the night record's milestones.py and this record's
+# release.py measure. PKG: a directory holding the package of this tree (with its native
+# module) for PYTHONPATH, if .venv's is not. As run: `run.sh` (its second part stopped by hand
+# after 3 M steps), then `run.sh still`.
+set -e
+d=$(dirname "$0")
+second=${1:-second}
+steps() { sed 's/.*"num_timesteps": *\([0-9]*\).*/\1/' "$1"; }
+keep() {
+    while sleep 15; do
+        for name in first "$second"; do
+            state=runs/ppo-Stack-$name/checkpoints/state.json
+            [ -f "$state" ] || continue
+            n=$(steps "$state")
+            kept=runs/ppo-Stack-$name/ckpt-$n.zip
+            [ -f "$kept" ] && continue
+            cp "runs/ppo-Stack-$name/checkpoints/latest.zip" "$kept.part"
+            # Kept only if whole and still the state's (a checkpoint being written is not).
+            if python3 -m zipfile -t "$kept.part" >/dev/null 2>&1 && [ "$(steps "$state")" = "$n" ]; then
+                mv "$kept.part" "$kept"
+            else
+                rm -f "$kept.part"
+            fi
+        done
+    done
+}
+keep &
+keeper=$!
+trap 'kill $keeper' EXIT
+export RECIPES=$d
+if [ ! -f runs/ppo-Stack-first/model.zip ]; then
+    "$d/../ppo-Stack-stage-2026-12-01/run.sh" first
+fi
+"$d/../ppo-Stack-stage-2026-12-01/run.sh" "$second" --init-from runs/ppo-Stack-first/checkpoints/latest.zip
+sleep 20
