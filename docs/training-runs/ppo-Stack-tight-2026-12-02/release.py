@@ -4,12 +4,14 @@ with cube1 on its goal, acted by the native network (deterministic actions) unti
 comes within WITHIN metres of its goal with cube1 let go; from that step on the hand is made to
 let go: SETTLE steps of standing still with the gripper closed (0 unless `--settle` says), then
 OPEN_STEPS steps of standing still with the gripper opening, then up with the gripper open to
-the episode's end. Printed: the share of episodes that reached that moment, the median
-speed of the hand then (cm/s; the expert lets go only below 1 cm/s sideways), and of those
-episodes the share placed and successful at the end. Run from the repository's root:
+the episode's end. `--gain G` scales the policy's hand actions by G (1 unless said) while cube2
+is within NEAR of its goal with cube1 let go: would a gentler hand near the stack do? Printed:
+the share of episodes that reached that moment, the median speed of the hand then (cm/s; the
+scripted expert lets go with the hand still), and of those episodes the share placed and
+successful at the end. Run from the repository's root:
 
     .venv/bin/python docs/training-runs/ppo-Stack-tight-2026-12-02/release.py \
-        [--within 0.02] [--settle 5] runs/ppo-Stack-second/ckpt-4000000.zip [more.zip ...]
+        [--within 0.02] [--settle 5] [--gain 0.3] runs/ppo-Stack-still/ckpt-4000000.zip [...]
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ EPISODES = 200
 ENVS = 50
 FIRST_SEED = 2_000_000
 OPEN_STEPS = 10
+NEAR = 0.03
 # Action: hand displacement x, y, z, then the gripper (+1 opens it).
 STAND_CLOSED = np.array([0.0, 0.0, 0.0, -1.0], dtype=np.float32)
 STAND_OPEN = np.array([0.0, 0.0, 0.0, 1.0], dtype=np.float32)
@@ -37,7 +40,7 @@ def flatten(obs: dict[str, np.ndarray], keys: list[str]) -> np.ndarray:
     return np.concatenate([np.asarray(obs[k], dtype=np.float32).reshape(ENVS, -1) for k in keys], 1)
 
 
-def release(path: str, within: float, settle: int = 0) -> dict[str, float]:
+def release(path: str, within: float, settle: int = 0, gain: float = 1.0) -> dict[str, float]:
     run = read_run_info(path) or {}
     env_id = run.get("env_id", "panda_rapier/StackDense-v0")
     options = dict(run.get("env_kwargs") or {})
@@ -55,9 +58,11 @@ def release(path: str, within: float, settle: int = 0) -> dict[str, float]:
         obs, _ = envs.reset(seed=[FIRST_SEED + first + i for i in range(ENVS)])
         done = np.zeros(ENVS, dtype=bool)
         since = np.full(ENVS, -1)  # steps since the release began; -1: not begun
+        near = np.zeros(ENVS, dtype=bool)
         rows = slice(first, first + ENVS)
         while not done.all():
             action = policy.act(flatten(obs, keys))
+            action[near, :3] *= gain
             begun = since >= 0
             t = since[begun][:, None]
             action[begun] = np.where(
@@ -69,6 +74,7 @@ def release(path: str, within: float, settle: int = 0) -> dict[str, float]:
                 (obs["achieved_goal"] - obs["desired_goal"]).reshape(ENVS, 2, 3), axis=2
             )
             let_go = (d[:, 0] < 0.05) & ~np.asarray(info["cube1_grasped"], dtype=bool)
+            near = let_go & (d[:, 1] < NEAR)
             begins = ~begun & ~done & let_go & (d[:, 1] < within)
             since[begins] = 0
             v = speed[rows]
@@ -93,17 +99,14 @@ def release(path: str, within: float, settle: int = 0) -> dict[str, float]:
 
 if __name__ == "__main__":
     paths = sys.argv[1:]
-    within, settle = 0.05, 0
-    while paths[:1] in (["--within"], ["--settle"]):
-        if paths[0] == "--within":
-            within = float(paths[1])
-        else:
-            settle = int(paths[1])
-        paths = paths[2:]
+    flags = {"--within": 0.05, "--settle": 0.0, "--gain": 1.0}
+    while paths[:1] and paths[0] in flags:
+        flags[paths[0]], paths = float(paths[1]), paths[2:]
+    within, settle, gain = flags["--within"], int(flags["--settle"]), flags["--gain"]
     for path in paths:
-        result = release(path, within, settle)
+        result = release(path, within, settle, gain)
         print(
             path,
-            f"within {within}, settle {settle}:",
+            f"within {within}, settle {settle}, gain {gain}:",
             "  ".join(f"{k}: {v:.3f}" for k, v in result.items()),
         )

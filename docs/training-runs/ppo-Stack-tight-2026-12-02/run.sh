@@ -1,16 +1,21 @@
 #!/bin/sh
-# The runs of this record, from the repository's root: `run.sh [SECOND]` trains
+# The runs of this record, from the repository's root: `run.sh [SECOND [--resume]]` trains
 # recipe-first.yml into runs/ppo-Stack-first (unless that run is there already), then
-# recipe-SECOND.yml (`second` unless given) into runs/ppo-Stack-SECOND started from the first
-# part's last checkpoint (`--init-from`), with the night record's run.sh (logs:
-# runs/ppo-Stack-NAME.log). While they run it keeps every checkpoint as
-# runs/ppo-Stack-NAME/ckpt-STEPS.zip, which the night record's milestones.py and this record's
-# release.py measure. PKG: a directory holding the package of this tree (with its native
-# module) for PYTHONPATH, if .venv's is not. As run: `run.sh` (its second part stopped by hand
-# after 3 M steps), then `run.sh still`.
+# recipe-SECOND.yml (`second` unless given) into runs/ppo-Stack-SECOND started from the first part's
+# last checkpoint (`--init-from`; with `--resume`, goes on with runs/ppo-Stack-SECOND from its
+# checkpoint instead), with the night record's run.sh (logs: runs/ppo-Stack-NAME.log). While they
+# run it keeps every checkpoint as runs/ppo-Stack-NAME/ckpt-STEPS.zip, which the night record's
+# milestones.py and this record's release.py measure. PKG: a directory holding the package of this
+# tree (with its native module) for PYTHONPATH, if .venv's is not. As run: `run.sh` (its second part
+# stopped by hand after 3 M steps), `run.sh still` (stopped by hand after 8 M), then `run.sh second
+# --resume` (stopped by hand after 13 M).
 set -e
 d=$(dirname "$0")
 second=${1:-second}
+start="--init-from runs/ppo-Stack-first/checkpoints/latest.zip"
+if [ "${2:-}" = --resume ]; then
+    start=--resume
+fi
 steps() { sed 's/.*"num_timesteps": *\([0-9]*\).*/\1/' "$1"; }
 keep() {
     while sleep 15; do
@@ -37,5 +42,5 @@ export RECIPES=$d
 if [ ! -f runs/ppo-Stack-first/model.zip ]; then
     "$d/../ppo-Stack-stage-2026-12-01/run.sh" first
 fi
-"$d/../ppo-Stack-stage-2026-12-01/run.sh" "$second" --init-from runs/ppo-Stack-first/checkpoints/latest.zip
+"$d/../ppo-Stack-stage-2026-12-01/run.sh" "$second" $start
 sleep 20
