@@ -75,9 +75,7 @@ def milestones(path: str, on_goal: float | None = None) -> dict[str, float]:
             both = second & np.asarray(info["cube_released"], dtype=bool)
             live = ~done
             new = second & live & ~reached[rows, 2]
-            o = offset[rows]
-            o[new] = (obs["achieved_goal"] - obs["desired_goal"])[new, 3:]
-            offset[rows] = o
+            offset[rows][new] = (obs["achieved_goal"] - obs["desired_goal"])[new, 3:]
             precise[rows] |= let_go & (d[:, 1] < PRECISE) & live
             for k, m in enumerate([first_at, let_go, second, both]):
                 reached[rows, k] |= m & live

@@ -13,25 +13,19 @@ import torch as th
 from stable_baselines3 import PPO
 
 sys.path.insert(0, "docs/training-runs/ppo-Stack-tight-2026-12-02")
-from release import PolicyNetwork, read_run_info
+from release import on_goal
 
 th.set_num_threads(1)
 path = sys.argv[1]
 model = PPO.load(path, device="cpu")
-run = read_run_info(path) or {}
-options = dict(run.get("env_kwargs") or {})
-options["task"] = {"name": "stack", **options.get("task", {}), "cube1_on_goal_probability": 1.0}
-policy = PolicyNetwork.from_zip(path)
-env = gym.make("panda_rapier/StackDense-v0", **options)
+env_id, options, policy = on_goal(path)
+env = gym.make(env_id, **options)
 # Both at the same states: the native network's actions drive the episodes.
 actions, raw = [], []
 for seed in range(2_000_000, 2_000_020):
     obs, _ = env.reset(seed=seed)
     for _t in range(150):
-        flat = np.concatenate(
-            [np.asarray(obs[k], np.float32).ravel() for k in env.observation_space.spaces]
-        )
-        a = policy.act(flat)
+        a = policy.act(obs)
         d = np.linalg.norm((obs["achieved_goal"] - obs["desired_goal"]).reshape(2, 3), axis=1)
         if d[1] < 0.03:
             o = {k: th.as_tensor(v[None]) for k, v in obs.items()}

@@ -11,14 +11,11 @@ import gymnasium as gym
 import numpy as np
 
 sys.path.insert(0, "docs/training-runs/ppo-Stack-tight-2026-12-02")
-from release import PolicyNetwork, read_run_info
+from release import observation_rows, on_goal
 
-path = sys.argv[1]
-run = read_run_info(path) or {}
-options = dict(run.get("env_kwargs") or {})
-options["task"] = {"name": "stack", **options.get("task", {}), "cube1_on_goal_probability": 1.0}
-policy = PolicyNetwork.from_zip(path)
-env = gym.make("panda_rapier/StackDense-v0", **options)
+env_id, options, policy = on_goal(sys.argv[1])
+env = gym.make(env_id, **options)
+velocity = env.unwrapped.schema.slot("cube2_linear_velocity")
 rng = np.random.default_rng(0)
 for std in (0.0, 0.1, 0.25):
     speeds = []
@@ -26,18 +23,15 @@ for std in (0.0, 0.1, 0.25):
         obs, _ = env.reset(seed=seed)
         since = -1
         for _t in range(150):
-            flat = np.concatenate(
-                [np.asarray(obs[k], np.float32).ravel() for k in env.observation_space.spaces]
-            )
-            a = policy.act(flat)
+            a = policy.act(obs)
             if since >= 0:
                 a = np.array([*rng.normal(0, std, 3), -1.0], np.float32)
             obs, r, term, trunc, info = env.step(a)
-            o = obs["observation"]
             if since >= 0:
                 since += 1
                 if since > 3:
-                    speeds.append(np.linalg.norm(o[48:51]))
+                    flat, _ = observation_rows(obs, policy.observation_dim, "noise.py")
+                    speeds.append(np.linalg.norm(flat[0, velocity]))
                 if since >= 13:
                     break
             d = np.linalg.norm((obs["achieved_goal"] - obs["desired_goal"]).reshape(2, 3), axis=1)

@@ -17,12 +17,14 @@ successful at the end. Run from the repository's root:
 from __future__ import annotations
 
 import sys
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
 from panda_rapier.agents.inference import PolicyNetwork
 from panda_rapier.agents.model_file import read_run_info
+from panda_rapier.policy import observation_rows
 
 EPISODES = 200
 ENVS = 50
@@ -35,17 +37,17 @@ STAND_OPEN = np.array([0.0, 0.0, 0.0, 1.0], dtype=np.float32)
 UP_OPEN = np.array([0.0, 0.0, 1.0, 1.0], dtype=np.float32)
 
 
-def flatten(obs: dict[str, np.ndarray], keys: list[str]) -> np.ndarray:
-    """Gymnasium's flat rows of a goal dict: the dict space's keys in order."""
-    return np.concatenate([np.asarray(obs[k], dtype=np.float32).reshape(ENVS, -1) for k in keys], 1)
+def on_goal(path: str) -> tuple[str, dict[str, Any], PolicyNetwork]:
+    """The environment id and options the model's run record names, with every episode starting
+    with cube1 on its goal, and the model's native network."""
+    run = read_run_info(path) or {}
+    options = dict(run.get("env_kwargs") or {})
+    options["task"] = {"name": "stack", **options.get("task", {}), "cube1_on_goal_probability": 1.0}
+    return run.get("env_id", "panda_rapier/StackDense-v0"), options, PolicyNetwork.from_zip(path)
 
 
 def release(path: str, within: float, settle: int = 0, gain: float = 1.0) -> dict[str, float]:
-    run = read_run_info(path) or {}
-    env_id = run.get("env_id", "panda_rapier/StackDense-v0")
-    options = dict(run.get("env_kwargs") or {})
-    options["task"] = {"name": "stack", **options.get("task", {}), "cube1_on_goal_probability": 1.0}
-    policy = PolicyNetwork.from_zip(path)
+    env_id, options, policy = on_goal(path)
     forced = np.zeros(EPISODES, dtype=bool)
     placed = np.zeros(EPISODES, dtype=bool)
     success = np.zeros(EPISODES, dtype=bool)
@@ -54,14 +56,13 @@ def release(path: str, within: float, settle: int = 0, gain: float = 1.0) -> dic
         envs = gym.make_vec(env_id, num_envs=ENVS, vectorization_mode="vector_entry_point",
                             autoreset_mode="disabled", **options)  # fmt: skip
         tcp_velocity = envs.schema.slot("tcp_velocity")
-        keys = list(envs.single_observation_space.spaces)
         obs, _ = envs.reset(seed=[FIRST_SEED + first + i for i in range(ENVS)])
         done = np.zeros(ENVS, dtype=bool)
         since = np.full(ENVS, -1)  # steps since the release began; -1: not begun
         near = np.zeros(ENVS, dtype=bool)
         rows = slice(first, first + ENVS)
         while not done.all():
-            action = policy.act(flatten(obs, keys))
+            action = policy.act(obs)
             action[near, :3] *= gain
             begun = since >= 0
             t = since[begun][:, None]
@@ -77,15 +78,13 @@ def release(path: str, within: float, settle: int = 0, gain: float = 1.0) -> dic
             near = let_go & (d[:, 1] < NEAR)
             begins = ~begun & ~done & let_go & (d[:, 1] < within)
             since[begins] = 0
-            v = speed[rows]
-            v[begins] = np.linalg.norm(flatten(obs, keys)[begins, tcp_velocity], axis=1) * 100
-            speed[rows] = v
+            flat, _ = observation_rows(obs, policy.observation_dim, "release.py")
+            speed[rows][begins] = np.linalg.norm(flat[begins, tcp_velocity], axis=1) * 100
             ending = ~done & (terminated | truncated)
-            f, s, p = forced[rows], success[rows], placed[rows]
-            f[ending] = since[ending] >= 0
-            s[ending] = np.asarray(info["is_success"], dtype=bool)[ending]
-            p[ending] = np.asarray(info["is_placed"], dtype=bool)[ending]
-            forced[rows], success[rows], placed[rows] = f, s, p
+            # Basic slices are views: these write into the arrays.
+            forced[rows][ending] = since[ending] >= 0
+            success[rows][ending] = np.asarray(info["is_success"], dtype=bool)[ending]
+            placed[rows][ending] = np.asarray(info["is_placed"], dtype=bool)[ending]
             done |= terminated | truncated
         envs.close()
     n = max(int(forced.sum()), 1)
