@@ -324,19 +324,37 @@ fn the_open_drawer_expert_opens_the_drawer_in_its_ids_action_modes() {
 }
 
 /// Stack's `stage` term (off by default), with the weight its documentation names (3, and
-/// `lift` 1): the scripted expert's stacks reach all four milestones, and each milestone, the
-/// first step it holds, pays more than any step before it (letting go of each cube included).
+/// `lift` 1): the scripted expert's stacks reach all four milestones (five with
+/// `task.stage_at_rest`), and each milestone, the first step it holds, pays more than any step
+/// before it (letting go of each cube included).
 #[test]
 fn stack_s_stage_term_pays_each_milestone_more_than_any_step_before_it() {
     let weight = 3.0;
+    for (at_rest, seed) in [
+        (false, 0),
+        (false, 1),
+        (false, 2),
+        (false, 3),
+        (true, 0),
+        (true, 1),
+    ] {
+        stage_milestones_pay_more(weight, at_rest, seed);
+    }
+}
+
+fn stage_milestones_pay_more(weight: f64, at_rest: bool, seed: u64) {
     let mut config = config(TaskKind::Stack, ControlMode::Ee, RewardType::Dense);
     config.reward_weights = [("stage", weight), ("lift", 1.0)]
         .into_iter()
         .map(|(name, w)| (name.to_string(), w))
         .collect();
+    config.task = TaskConfig::Stack(StackConfig {
+        stage_at_rest: at_rest,
+        ..StackConfig::default()
+    });
     let mut env = PandaEnv::new(config).unwrap();
     let mut policy = ScriptedPolicy::new(env.config()).unwrap();
-    for seed in 0..4 {
+    {
         env.reset(Some(seed), &ResetOptions::default()).unwrap();
         let mut action = vec![0.0; env.action_dim()];
         let (mut reached, mut best) = (0, f32::NEG_INFINITY);
@@ -358,9 +376,10 @@ fn stack_s_stage_term_pays_each_milestone_more_than_any_step_before_it() {
             }
             best = best.max(t.reward);
         }
+        let all = if at_rest { 5 } else { 4 };
         assert_eq!(
-            reached, 4,
-            "seed {seed}: the expert's stack reached {reached} milestones"
+            reached, all,
+            "seed {seed}, at rest {at_rest}: the expert's stack reached {reached} milestones"
         );
     }
 }
