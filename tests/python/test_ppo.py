@@ -56,6 +56,8 @@ def _pair(
     # Each on its own environments, started from the same seeds.
     ours = PPO("MultiInputPolicy", make_vec_env(ENV_ID, n_envs=n_envs, seed=3, **options),
                seed=0, device="cpu", **settings)  # fmt: skip
+    # SB3's constructor does not take our bounds loss.
+    settings.pop("mean_bound_coef", None)
     theirs = stable_baselines3.PPO(
         "MultiInputPolicy", make_vec_env(ENV_ID, n_envs=n_envs, seed=3, **options), seed=0,
         device="cpu", **settings,
@@ -139,3 +141,42 @@ def test_other_policies_take_sb3s_update() -> None:
     after = ours.policy.state_dict()
     assert any(not th.equal(before[k], after[k]) for k in before)
     assert "train/approx_kl" in ours.logger.kept  # type: ignore[attr-defined]
+
+
+def _means_beyond_bounds(model: PPO) -> th.Tensor:
+    """The Gaussian's means at the rollout's observations, after the action layer's bias is
+    pushed beyond the bounds."""
+    data = model._flat_buffer()
+    with th.no_grad():
+        latent = model.policy.mlp_extractor.forward_actor(data["pi_features"])
+        return model.policy.action_net(latent)
+
+
+def test_mean_bound_coef_pulls_means_beyond_the_bounds_back() -> None:
+    # The same rollout and minibatches, with the means pushed to about +3: with the coefficient
+    # the update brings them back towards the bounds, and logs its loss; without it, they stay.
+    ends = {}
+    for coef in (0.0, 1.0):
+        ours = _pair(mean_bound_coef=coef)[1]
+        with th.no_grad():
+            ours.policy.action_net.bias.fill_(3.0)
+        callback = _start(ours)
+        assert ours.collect_rollouts(ours.env, callback, ours.rollout_buffer, 16)
+        before = _means_beyond_bounds(ours)
+        assert float(before.min()) > 2.0
+        np.random.seed(11)  # noqa: NPY002 (the same minibatches)
+        ours.train()
+        ends[coef] = float((_means_beyond_bounds(ours) - before).mean())
+        assert ("train/mean_bound_loss" in ours.logger.kept) == (coef > 0)  # type: ignore[attr-defined]
+    assert ends[1.0] < ends[0.0] - 0.01, ends
+
+
+def test_mean_bound_coef_is_saved_and_refused_where_it_cannot_apply(tmp_path: Any) -> None:
+    ours = _pair(mean_bound_coef=0.5)[1]
+    ours.save(tmp_path / "model.zip")
+    assert PPO.load(tmp_path / "model.zip", device="cpu").mean_bound_coef == 0.5
+    for bad in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="mean_bound_coef"):
+            _pair(mean_bound_coef=bad)
+    with pytest.raises(ValueError, match="mean_bound_coef"):
+        _pair(mean_bound_coef=0.5, use_sde=True)

@@ -23,6 +23,16 @@ The rollouts (:meth:`PPO.collect_rollouts`): SB3's loop, except that the value o
 environment whose episode was cut by the time limit is predicted in one forward pass per step
 instead of one per environment (the bootstrapped rewards equal SB3's to float32 rounding).
 
+``mean_bound_coef`` (a constructor argument, 0 by default: SB3's loss) adds to the loss that
+coefficient times the mean over the minibatch of ``sum_i max(|mu_i| - MEAN_BOUND, 0)^2``, the
+Gaussian's means ``mu`` beyond ``MEAN_BOUND`` (1.1) of the action bounds ``[-1, 1]`` (the
+bounds loss of rl_games' PPO). The environment clips actions to the bounds, so a mean beyond
+them gives every sample the same action: the advantages no longer tell samples apart and
+nothing in the policy gradient brings the mean back, so the policy loses the actions within
+the bounds, such as holding the hand still (``docs/training.md``, 2026-12-02: 19-49 % of a
+Stack policy's hand means near the goal were beyond 1.3). It needs the lean update (a
+:class:`ValueError` otherwise).
+
 With :attr:`PPO.overlap_updates` (``panda-rapier train --overlap-updates``) each update runs
 in a learner process while the next rollout is collected, by the policy from before that
 update (:mod:`panda_rapier.learning.overlap`): a different schedule, not the same arithmetic.
@@ -49,7 +59,10 @@ from stable_baselines3.common.utils import explained_variance, obs_as_tensor
 from stable_baselines3.common.vec_env import VecEnv
 from torch.nn import functional as F
 
-__all__ = ["PPO", "lean_update_applies"]
+__all__ = ["MEAN_BOUND", "PPO", "lean_update_applies"]
+
+#: Where ``mean_bound_coef``'s loss starts: the Gaussian's means beyond this, either side.
+MEAN_BOUND = 1.1
 
 # log(sqrt(2 pi)), as torch.distributions.Normal writes it.
 _LOG_SQRT_2PI = math.log(math.sqrt(2 * math.pi))
@@ -92,6 +105,24 @@ class PPO(stable_baselines3.PPO):
     by the policy from before that update (:mod:`panda_rapier.learning.overlap`)."""
 
     overlap_updates: bool = False
+
+    def __init__(self, *args: Any, mean_bound_coef: float = 0.0, **kwargs: Any) -> None:
+        coef = mean_bound_coef
+        if not (isinstance(coef, (int, float)) and math.isfinite(coef) and coef >= 0):
+            raise ValueError(f"mean_bound_coef must be a finite number, 0 or more, got {coef!r}")
+        #: The weight of the loss on the Gaussian's means beyond :data:`MEAN_BOUND` (the
+        #: module's documentation); saved with the model.
+        self.mean_bound_coef = float(coef)
+        super().__init__(*args, **kwargs)
+
+    def _setup_model(self) -> None:
+        super()._setup_model()
+        if self.mean_bound_coef and not lean_update_applies(self):
+            raise ValueError(
+                "mean_bound_coef needs a diagonal Gaussian policy without gSDE or squashing and "
+                "features extractors without weights (the lean update); this policy takes "
+                "SB3's own update"
+            )
 
     def _excluded_save_params(self) -> list[str]:
         return [*super()._excluded_save_params(), "overlap_updates"]
@@ -149,6 +180,8 @@ class PPO(stable_baselines3.PPO):
         """One update on the rollout buffer: SB3's (``stable_baselines3.PPO.train``), computed
         as the module's documentation says where :func:`lean_update_applies`."""
         if not lean_update_applies(self):
+            if self.mean_bound_coef:
+                raise ValueError("mean_bound_coef needs the lean update (see PPO's documentation)")
             super().train()
             return
         policy = self.policy
@@ -166,6 +199,7 @@ class PPO(stable_baselines3.PPO):
         entropy_losses: list[float] = []
         clip_fractions: list[float] = []
         approx_kl_divs: list[float] = []
+        bound_losses: list[float] = []
         loss = th.zeros(())
         size = len(data["returns"])
         continue_training = True
@@ -176,7 +210,7 @@ class PPO(stable_baselines3.PPO):
             order = th.as_tensor(np.random.permutation(size))  # noqa: NPY002
             for start in range(0, size, self.batch_size):
                 rows = order[start : start + self.batch_size]
-                values, log_prob, entropy = self._evaluate(data, rows)
+                values, log_prob, entropy, mean = self._evaluate(data, rows)
                 advantages = data["advantages"][rows]
                 if self.normalize_advantage and len(advantages) > 1:
                     advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
@@ -195,6 +229,11 @@ class PPO(stable_baselines3.PPO):
                 value_loss = F.mse_loss(data["returns"][rows], values_pred)
                 entropy_loss = -th.mean(entropy)
                 loss = policy_loss + self.ent_coef * entropy_loss + self.vf_coef * value_loss
+                if self.mean_bound_coef:
+                    beyond = F.relu(mean.abs() - MEAN_BOUND)
+                    bound_loss = (beyond**2).sum(dim=1).mean()
+                    loss = loss + self.mean_bound_coef * bound_loss
+                    bound_losses.append(bound_loss.item())
                 with th.no_grad():
                     clip_fraction = th.mean((th.abs(ratio - 1) > clip_range).float())
                     approx_kl = th.mean((th.exp(log_ratio) - 1) - log_ratio)
@@ -230,6 +269,8 @@ class PPO(stable_baselines3.PPO):
         self.logger.record("train/loss", loss.item())
         self.logger.record("train/explained_variance", explained_var)
         self.logger.record("train/std", th.exp(policy.log_std).mean().item())
+        if bound_losses:
+            self.logger.record("train/mean_bound_loss", np.mean(bound_losses))
         self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
         self.logger.record("train/clip_range", clip_range)
         if clip_range_vf is not None:
@@ -274,9 +315,10 @@ class PPO(stable_baselines3.PPO):
 
     def _evaluate(
         self, data: dict[str, Any], rows: th.Tensor
-    ) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
+    ) -> tuple[th.Tensor, th.Tensor, th.Tensor, th.Tensor]:
         """``policy.evaluate_actions`` on the samples ``rows``: values, log-density of the
-        taken actions and entropy, as SB3's diagonal Gaussian computes them."""
+        taken actions and entropy, as SB3's diagonal Gaussian computes them, and the
+        Gaussian's means."""
         policy = self.policy
         mlp = policy.mlp_extractor
         latent_pi = mlp.forward_actor(data["pi_features"][rows])
@@ -291,7 +333,7 @@ class PPO(stable_baselines3.PPO):
         log_prob = -((actions - mean) ** 2) / (2 * scale**2) - log_scale - _LOG_SQRT_2PI
         log_prob = log_prob.sum(dim=1)
         entropy = (0.5 + _LOG_SQRT_2PI + log_scale).sum(dim=1)
-        return values, log_prob, entropy
+        return values, log_prob, entropy, mean
 
     def collect_rollouts(
         self,
