@@ -17,6 +17,7 @@ successful at the end. Run from the repository's root:
 from __future__ import annotations
 
 import sys
+from collections.abc import Iterator
 from typing import Any
 
 import gymnasium as gym
@@ -46,17 +47,25 @@ def on_goal(path: str) -> tuple[str, dict[str, Any], PolicyNetwork]:
     return run.get("env_id", "panda_rapier/StackDense-v0"), options, PolicyNetwork.from_zip(path)
 
 
+def batches(env_id: str, options: dict[str, Any]) -> Iterator[tuple[int, Any, dict[str, Any]]]:
+    """The EPISODES seeded episodes, ENVS at a time: the first one's index, the vector env (closed
+    after its batch) and its first observations."""
+    for first in range(0, EPISODES, ENVS):
+        envs = gym.make_vec(env_id, num_envs=ENVS, vectorization_mode="vector_entry_point",
+                            autoreset_mode="disabled", **options)  # fmt: skip
+        obs, _ = envs.reset(seed=[FIRST_SEED + first + i for i in range(ENVS)])
+        yield first, envs, obs
+        envs.close()
+
+
 def release(path: str, within: float, settle: int = 0, gain: float = 1.0) -> dict[str, float]:
     env_id, options, policy = on_goal(path)
     forced = np.zeros(EPISODES, dtype=bool)
     placed = np.zeros(EPISODES, dtype=bool)
     success = np.zeros(EPISODES, dtype=bool)
     speed = np.full(EPISODES, np.nan)
-    for first in range(0, EPISODES, ENVS):
-        envs = gym.make_vec(env_id, num_envs=ENVS, vectorization_mode="vector_entry_point",
-                            autoreset_mode="disabled", **options)  # fmt: skip
+    for first, envs, obs in batches(env_id, options):
         tcp_velocity = envs.schema.slot("tcp_velocity")
-        obs, _ = envs.reset(seed=[FIRST_SEED + first + i for i in range(ENVS)])
         done = np.zeros(ENVS, dtype=bool)
         since = np.full(ENVS, -1)  # steps since the release began; -1: not begun
         near = np.zeros(ENVS, dtype=bool)
@@ -86,7 +95,6 @@ def release(path: str, within: float, settle: int = 0, gain: float = 1.0) -> dic
             success[rows][ending] = np.asarray(info["is_success"], dtype=bool)[ending]
             placed[rows][ending] = np.asarray(info["is_placed"], dtype=bool)[ending]
             done |= terminated | truncated
-        envs.close()
     n = max(int(forced.sum()), 1)
     return {
         "let go": float(forced.mean()),

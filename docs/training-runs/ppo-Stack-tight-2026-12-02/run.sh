@@ -8,7 +8,8 @@
 # milestones.py and this record's release.py measure. PKG: a directory holding the package of this
 # tree (with its native module) for PYTHONPATH, if .venv's is not. As run: `run.sh` (its second part
 # stopped by hand after 3 M steps), `run.sh still` (stopped by hand after 8 M), then `run.sh second
-# --resume` (stopped by hand after 13 M).
+# --resume` (stopped by hand after 13 M). SECOND_RECIPES: the directory of recipe-SECOND.yml
+# (this one's unless set; a later record's run.sh sets it).
 set -e
 d=$(dirname "$0")
 second=${1:-second}
@@ -42,5 +43,5 @@ export RECIPES=$d
 if [ ! -f runs/ppo-Stack-first/model.zip ]; then
     "$d/../ppo-Stack-stage-2026-12-01/run.sh" first
 fi
-"$d/../ppo-Stack-stage-2026-12-01/run.sh" "$second" $start
+RECIPES=${SECOND_RECIPES:-$d} "$d/../ppo-Stack-stage-2026-12-01/run.sh" "$second" $start
 sleep 20
