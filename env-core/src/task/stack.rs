@@ -473,13 +473,17 @@ fn milestones(
     let first = d[0] < threshold;
     let let_go = first && !cube1_grasped;
     let second = let_go && d[1] < threshold;
-    let still = second && context.cube_at_rest;
-    let released = if at_rest { still } else { second } && context.cube_released;
-    let reached = [first, let_go, second, released]
+    // Each milestone counts only with the ones before it: `last` is the latest reached.
+    let mut reached = [first, let_go, second]
         .into_iter()
         .map(f32::from)
         .sum::<f32>();
-    reached + f32::from(at_rest && still)
+    let mut last = second;
+    if at_rest {
+        last &= context.cube_at_rest;
+        reached += f32::from(last);
+    }
+    reached + f32::from(last && context.cube_released)
 }
 
 /// The distance `reach` measures, given the handled cube's centre minus the TCP position: to

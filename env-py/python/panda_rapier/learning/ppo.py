@@ -179,9 +179,7 @@ class PPO(stable_baselines3.PPO):
     def train(self) -> None:
         """One update on the rollout buffer: SB3's (``stable_baselines3.PPO.train``), computed
         as the module's documentation says where :func:`lean_update_applies`."""
-        if not lean_update_applies(self):
-            if self.mean_bound_coef:
-                raise ValueError("mean_bound_coef needs the lean update (see PPO's documentation)")
+        if not lean_update_applies(self):  # never with mean_bound_coef (_setup_model refuses it)
             super().train()
             return
         policy = self.policy
