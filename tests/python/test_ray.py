@@ -422,6 +422,11 @@ def test_sweeps_are_checked_before_they_start() -> None:
         check_sweep("ppo", "panda_rapier/Reach-v0")
     with pytest.raises(ConfigError, match="lerning_rate"):
         check_sweep("ppo", DENSE, {"lerning_rate": 1e-3})
+    # PPO's own argument and the ones it forwards to SB3's PPO are all recipe keys.
+    swept = {"learning_rate": 1e-4, "n_steps": 8, "batch_size": 64, "mean_bound_coef": 0.1}
+    assert check_sweep("ppo", DENSE, swept)["n_envs"] > 0
+    with pytest.raises(ConfigError, match="kwargs"):
+        check_sweep("ppo", DENSE, {"kwargs": {}})
     with pytest.raises(InvalidArgumentError, match="seeds"):
         sb3_tuner("ppo", DENSE, seeds=[])
     with pytest.raises(InvalidArgumentError, match="cpus_per_trial"):

@@ -98,6 +98,26 @@ def _plain(value: Any) -> Any:
     return value
 
 
+def _constructor_arguments(cls: type) -> set[str]:
+    """The keyword arguments ``cls(env, ...)`` takes: its ``__init__``'s named parameters and,
+    where that forwards ``**kwargs`` (a subclass such as :class:`panda_rapier.learning.PPO`),
+    those of the base classes it forwards to, without ``self``, ``env``, ``*args`` or
+    ``**kwargs``."""
+    names: set[str] = set()
+    for klass in cls.__mro__:
+        if "__init__" not in vars(klass) or klass is object:
+            continue
+        parameters = inspect.signature(vars(klass)["__init__"]).parameters.values()
+        names |= {
+            p.name
+            for p in parameters
+            if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD) and p.name not in ("self", "env")
+        }
+        if not any(p.kind is p.VAR_KEYWORD for p in parameters):
+            break
+    return names
+
+
 def check_sweep(
     algo: str,
     env_id: str,
@@ -117,8 +137,7 @@ def check_sweep(
     recipe = load_recipe(algo, env_id, conf)
     if hyperparams is not None and not isinstance(hyperparams, Mapping):
         raise InvalidArgumentError(f"hyperparams must be a mapping, got {hyperparams!r}")
-    parameters = inspect.signature(algorithm_class(algo).__init__).parameters
-    known = {name for name in parameters if name not in ("self", "env")} | set(_RECIPE_RUN_KEYS)
+    known = _constructor_arguments(algorithm_class(algo)) | set(_RECIPE_RUN_KEYS)
     unknown = sorted(set(hyperparams or {}) - known)
     if unknown:
         raise ConfigError(f"unknown {algo} hyperparameters {unknown}; recipe keys: {sorted(known)}")
