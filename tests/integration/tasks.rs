@@ -324,25 +324,29 @@ fn the_open_drawer_expert_opens_the_drawer_in_its_ids_action_modes() {
 }
 
 /// Stack's `stage` term (off by default), with the weight its documentation names (3, and
-/// `lift` 1): the scripted expert's stacks reach all four milestones (five with
-/// `task.stage_at_rest`), and each milestone, the first step it holds, pays more than any step
-/// before it (letting go of each cube included).
+/// `lift` 1): the scripted expert's stacks reach all four milestones (one more with each of
+/// `task.stage_at_rest` and `task.stage_let_go`), and each milestone, the first step it holds,
+/// pays more than any step before it (letting go of each cube included).
 #[test]
 fn stack_s_stage_term_pays_each_milestone_more_than_any_step_before_it() {
     let weight = 3.0;
-    for (at_rest, seed) in [
-        (false, 0),
-        (false, 1),
-        (false, 2),
-        (false, 3),
-        (true, 0),
-        (true, 1),
+    for (at_rest, let_go, seed) in [
+        (false, false, 0),
+        (false, false, 1),
+        (false, false, 2),
+        (false, false, 3),
+        (true, false, 0),
+        (true, false, 1),
+        (false, true, 0),
+        (false, true, 1),
+        (true, true, 0),
+        (true, true, 1),
     ] {
-        stage_milestones_pay_more(weight, at_rest, seed);
+        stage_milestones_pay_more(weight, at_rest, let_go, seed);
     }
 }
 
-fn stage_milestones_pay_more(weight: f64, at_rest: bool, seed: u64) {
+fn stage_milestones_pay_more(weight: f64, at_rest: bool, let_go: bool, seed: u64) {
     let mut config = config(TaskKind::Stack, ControlMode::Ee, RewardType::Dense);
     config.reward_weights = [("stage", weight), ("lift", 1.0)]
         .into_iter()
@@ -350,6 +354,7 @@ fn stage_milestones_pay_more(weight: f64, at_rest: bool, seed: u64) {
         .collect();
     config.task = TaskConfig::Stack(StackConfig {
         stage_at_rest: at_rest,
+        stage_let_go: let_go,
         ..StackConfig::default()
     });
     let mut env = PandaEnv::new(config).unwrap();
@@ -376,10 +381,11 @@ fn stage_milestones_pay_more(weight: f64, at_rest: bool, seed: u64) {
             }
             best = best.max(t.reward);
         }
-        let all = if at_rest { 5 } else { 4 };
+        let all = 4 + usize::from(at_rest) + usize::from(let_go);
         assert_eq!(
             reached, all,
-            "seed {seed}, at rest {at_rest}: the expert's stack reached {reached} milestones"
+            "seed {seed}, at rest {at_rest}, let go {let_go}: the expert's stack reached \
+             {reached} milestones"
         );
     }
 }

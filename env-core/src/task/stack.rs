@@ -73,7 +73,9 @@
 //!
 //! With `task.stage_at_rest` a milestone comes between the last two: and both cubes at rest
 //! (`cube_at_rest`, below the `thresholds.rest_*` speeds), so that cube2 held still on cube1
-//! pays before it is let go (below).
+//! pays before it is let go (below). With `task.stage_let_go` one comes after that (or after
+//! the third without rest): and neither cube grasped (`is_grasped` false), so that loosening
+//! the grip on cube2 pays before the fingers are clear of it (below).
 //!
 //! With a weight above about 2 (with `lift` 1; the other terms at their defaults), each
 //! milestone pays more than the step to it costs, so every step of the stack, letting go
@@ -116,6 +118,16 @@
 //! while cube2 is within the threshold, before the last milestone, which then also needs them
 //! at rest. Its input is `cube_at_rest`, already a context key, so `compute_reward` recomputes
 //! it; a training run can loosen the rest speed with `thresholds.rest_linear_speed`.
+//!
+//! ## The let-go milestone
+//! With the rest milestone PPO from scratch held cube2 still on cube1 (1.5-2.6 cm/s at its
+//! slowest) but never let it go, in 20 M steps (`docs/training.md`, 2026-12-02, the morning
+//! session). cube1's release was learnt through its own "not grasped" milestone, which pays at
+//! the first step the squeeze loosens; cube2's last milestone pays only once no robot link
+//! touches either cube, several steps of opening later, with nothing paying on the way.
+//! `task.stage_let_go` (off by default) pays the weight once more for neither cube grasped
+//! (after the milestones before it), mirroring cube1's. Its input is `is_grasped`, an info
+//! entry of every id, read back as a context key.
 
 use nalgebra::Vector3;
 use rand::Rng;
@@ -203,12 +215,13 @@ const STAGE: RewardTerm = RewardTerm {
     default_weight: 0.0,
     description: "the weight times the milestones reached, 0 to 4: cube1 within the threshold \
                   of its goal; and not grasped; and cube2 within the threshold of its goal; and \
-                  neither cube touched by the robot (0 to 5 with task.stage_at_rest: both cubes \
-                  at rest before the last; off by default)",
+                  neither cube touched by the robot (one more before the last with \
+                  task.stage_at_rest, both cubes at rest, and with task.stage_let_go, neither \
+                  cube grasped; off by default)",
 };
 
 /// The reward's inputs that `compute_reward` reads back.
-const CONTEXT_KEYS: [&str; 7] = [
+const CONTEXT_KEYS: [&str; 8] = [
     "reward_reach",
     "reward_grasp",
     "reward_lift",
@@ -216,9 +229,32 @@ const CONTEXT_KEYS: [&str; 7] = [
     "cube_at_rest",
     "cube_on_platform",
     "cube1_grasped",
+    "is_grasped",
 ];
 /// Where `cube1_grasped` is among [`CONTEXT_KEYS`].
 const CUBE1_GRASPED_KEY: usize = 6;
+/// Where `is_grasped` is among [`CONTEXT_KEYS`].
+const IS_GRASPED_KEY: usize = 7;
+
+/// The grasps the `stage` term reads.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct Grasps {
+    /// cube1 squeezed by both fingers (`cube1_grasped`).
+    cube1: bool,
+    /// Either cube squeezed by both fingers (`is_grasped`).
+    either: bool,
+}
+
+impl Grasps {
+    /// The grasps of a `compute_reward` context row (absent entries: not grasped).
+    fn from_row(row: &[f32]) -> Self {
+        let flag = |k: usize| row.get(k).is_some_and(|&v| v != 0.0);
+        Self {
+            cube1: flag(CUBE1_GRASPED_KEY),
+            either: flag(IS_GRASPED_KEY),
+        }
+    }
+}
 
 /// The task's observation slots, after the robot's: five per cube.
 const SLOTS: [SlotSpec; 10] = [
@@ -298,6 +334,9 @@ pub struct StackConfig {
     /// the threshold and neither cube touched (false: the four milestones, the ids' setting;
     /// the module documentation).
     pub stage_at_rest: bool,
+    /// Whether the `stage` term counts neither cube grasped as a milestone, just before
+    /// neither cube touched (false: the ids' setting; the module documentation).
+    pub stage_let_go: bool,
 }
 
 impl Default for StackConfig {
@@ -312,6 +351,7 @@ impl Default for StackConfig {
             reward_distance_rate: CLOSENESS_RATE,
             reach_hover_height: 0.0,
             stage_at_rest: false,
+            stage_let_go: false,
         }
     }
 }
@@ -406,19 +446,27 @@ impl Stack {
             .unwrap_or_else(|| [ObjectId::first(), ObjectId::first()])
     }
 
+    /// The optional milestones the section turns on.
+    fn stages(&self) -> Stages {
+        Stages {
+            at_rest: self.section.stage_at_rest,
+            let_go: self.section.stage_let_go,
+        }
+    }
+
     /// `reach` and `carry`'s `1 - tanh(k d)`, `k` the section's `reward_distance_rate`.
     fn closeness(&self, distance: f64) -> f32 {
         closeness_at_rate(distance, self.section.reward_distance_rate)
     }
 
     /// Distances of the two cubes to their goals, success and the reward for one transition
-    /// (`cube1_grasped`: an input of `stage`).
+    /// (`grasps`: inputs of `stage`).
     fn judge(
         &self,
         achieved: &[f32],
         desired: &[f32],
         context: &RewardContext,
-        cube1_grasped: bool,
+        grasps: Grasps,
     ) -> GoalVerdict {
         let d = [
             RewardFunction::distance(&achieved[..3], &desired[..3]),
@@ -440,13 +488,7 @@ impl Stack {
                     place: if is_placed { w.place as f32 } else { 0.0 },
                     release: 0.0,
                     stage: w.stage as f32
-                        * milestones(
-                            d,
-                            threshold,
-                            cube1_grasped,
-                            self.section.stage_at_rest,
-                            context,
-                        ),
+                        * milestones(d, threshold, grasps, self.stages(), context),
                 };
                 (terms.total(), terms)
             }
@@ -461,17 +503,26 @@ impl Stack {
     }
 }
 
+/// The `stage` term's optional milestones (`task.stage_at_rest`, `task.stage_let_go`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct Stages {
+    /// Both cubes at rest, after cube2 within the threshold.
+    at_rest: bool,
+    /// Neither cube grasped, just before neither cube touched.
+    let_go: bool,
+}
+
 /// How many of the `stage` term's milestones (the module documentation) are reached, given
-/// the cubes' distances `d` to their goals; `at_rest`: whether both cubes at rest is one.
+/// the cubes' distances `d` to their goals and the optional milestones `stages` counts.
 fn milestones(
     d: [f64; 2],
     threshold: f64,
-    cube1_grasped: bool,
-    at_rest: bool,
+    grasps: Grasps,
+    stages: Stages,
     context: &RewardContext,
 ) -> f32 {
     let first = d[0] < threshold;
-    let let_go = first && !cube1_grasped;
+    let let_go = first && !grasps.cube1;
     let second = let_go && d[1] < threshold;
     // Each milestone counts only with the ones before it: `last` is the latest reached.
     let mut reached = [first, let_go, second]
@@ -479,9 +530,14 @@ fn milestones(
         .map(f32::from)
         .sum::<f32>();
     let mut last = second;
-    if at_rest {
-        last &= context.cube_at_rest;
-        reached += f32::from(last);
+    for (on, holds) in [
+        (stages.at_rest, context.cube_at_rest),
+        (stages.let_go, !grasps.either),
+    ] {
+        if on {
+            last &= holds;
+            reached += f32::from(last);
+        }
     }
     reached + f32::from(last && context.cube_released)
 }
@@ -656,10 +712,13 @@ impl Task for Stack {
             cube_on_platform: touch[0].platform && touch[1].touches(c1),
             gripper_opening: view.gripper_opening as f32,
         };
-        let cube1_grasped = grasped(&touch[0]);
-        let judgement = self.judge(achieved, desired, &context, cube1_grasped);
+        let grasps = Grasps {
+            cube1: grasped(&touch[0]),
+            either: is_grasped,
+        };
+        let judgement = self.judge(achieved, desired, &context, grasps);
         let mut info = cube_task_info(&INFO_FIELDS, is_grasped, is_lifted, &context, &judgement);
-        info.set(CUBE1_GRASPED.key, cube1_grasped);
+        info.set(CUBE1_GRASPED.key, grasps.cube1);
         Verdict {
             is_success: judgement.is_success,
             goal_distance: judgement.distance,
@@ -685,14 +744,8 @@ impl Task for Stack {
             needs_context,
             out,
             |a, d, row| {
-                let cube1_grasped = row.get(CUBE1_GRASPED_KEY).is_some_and(|&v| v != 0.0);
-                self.judge(
-                    a,
-                    d,
-                    &RewardContext::from_row(&CONTEXT_KEYS, row),
-                    cube1_grasped,
-                )
-                .reward
+                let context = RewardContext::from_row(&CONTEXT_KEYS, row);
+                self.judge(a, d, &context, Grasps::from_row(row)).reward
             },
         )
     }
@@ -712,8 +765,41 @@ mod tests {
     }
 
     #[test]
-    fn the_grasp_input_is_read_back_from_its_context_key() {
+    fn the_grasp_inputs_are_read_back_from_their_context_keys() {
         assert_eq!(CONTEXT_KEYS[CUBE1_GRASPED_KEY], CUBE1_GRASPED.key);
+        assert_eq!(CONTEXT_KEYS[IS_GRASPED_KEY], IS_GRASPED.key);
+        let mut row = [0.0; CONTEXT_KEYS.len()];
+        assert_eq!(Grasps::from_row(&row), Grasps::default());
+        row[IS_GRASPED_KEY] = 1.0;
+        let either = Grasps {
+            cube1: false,
+            either: true,
+        };
+        assert_eq!(Grasps::from_row(&row), either);
+        row[CUBE1_GRASPED_KEY] = 1.0;
+        assert_eq!(
+            Grasps::from_row(&row),
+            Grasps {
+                cube1: true,
+                ..either
+            }
+        );
+        // A shorter row (an older context layout) reads as not grasped.
+        assert_eq!(
+            Grasps::from_row(&row[..7]),
+            Grasps {
+                cube1: true,
+                either: false
+            }
+        );
+    }
+
+    /// Grasps with cube1 held (`cube1`) or not, and cube2 held when cube1 is not (`cube2`).
+    fn grasps(cube1: bool, cube2: bool) -> Grasps {
+        Grasps {
+            cube1,
+            either: cube1 || cube2,
+        }
     }
 
     #[test]
@@ -724,13 +810,20 @@ mod tests {
         };
         let held = RewardContext::default();
         let (near, far) = (0.01, 0.2);
+        let none = Stages::default();
+        let (free, cube1, cube2) = (
+            grasps(false, false),
+            grasps(true, false),
+            grasps(false, true),
+        );
         // Each milestone counts only with the ones before it.
-        assert_eq!(milestones([far, near], 0.05, false, false, &released), 0.0);
-        assert_eq!(milestones([near, far], 0.05, true, false, &held), 1.0);
-        assert_eq!(milestones([near, near], 0.05, true, false, &released), 1.0);
-        assert_eq!(milestones([near, far], 0.05, false, false, &released), 2.0);
-        assert_eq!(milestones([near, near], 0.05, false, false, &held), 3.0);
-        assert_eq!(milestones([near, near], 0.05, false, false, &released), 4.0);
+        assert_eq!(milestones([far, near], 0.05, free, none, &released), 0.0);
+        assert_eq!(milestones([near, far], 0.05, cube1, none, &held), 1.0);
+        assert_eq!(milestones([near, near], 0.05, cube1, none, &released), 1.0);
+        assert_eq!(milestones([near, far], 0.05, free, none, &released), 2.0);
+        assert_eq!(milestones([near, near], 0.05, cube2, none, &held), 3.0);
+        assert_eq!(milestones([near, near], 0.05, free, none, &held), 3.0);
+        assert_eq!(milestones([near, near], 0.05, free, none, &released), 4.0);
         // Rest does not count without the option.
         let at_rest = |cube_released| RewardContext {
             cube_released,
@@ -738,11 +831,11 @@ mod tests {
             ..RewardContext::default()
         };
         assert_eq!(
-            milestones([near, near], 0.05, false, false, &at_rest(false)),
+            milestones([near, near], 0.05, cube2, none, &at_rest(false)),
             3.0
         );
         assert_eq!(
-            milestones([near, near], 0.05, false, false, &at_rest(true)),
+            milestones([near, near], 0.05, free, none, &at_rest(true)),
             4.0
         );
     }
@@ -755,15 +848,62 @@ mod tests {
             ..RewardContext::default()
         };
         let (near, far) = (0.01, 0.2);
-        let count = |d, grasped, c: &RewardContext| milestones(d, 0.05, grasped, true, c);
+        let stages = Stages {
+            at_rest: true,
+            let_go: false,
+        };
+        let count = |d, g, c: &RewardContext| milestones(d, 0.05, g, stages, c);
+        let (free, cube1, cube2) = (
+            grasps(false, false),
+            grasps(true, false),
+            grasps(false, true),
+        );
         // Rest counts only once cube2 is within the threshold, cube1 placed and let go.
-        assert_eq!(count([near, far], false, &context(false, true)), 2.0);
-        assert_eq!(count([near, near], true, &context(false, true)), 1.0);
-        assert_eq!(count([near, near], false, &context(false, false)), 3.0);
-        assert_eq!(count([near, near], false, &context(false, true)), 4.0);
+        assert_eq!(count([near, far], free, &context(false, true)), 2.0);
+        assert_eq!(count([near, near], cube1, &context(false, true)), 1.0);
+        assert_eq!(count([near, near], cube2, &context(false, false)), 3.0);
+        assert_eq!(count([near, near], cube2, &context(false, true)), 4.0);
         // Let go while still moving: the release does not count without rest.
-        assert_eq!(count([near, near], false, &context(true, false)), 3.0);
-        assert_eq!(count([near, near], false, &context(true, true)), 5.0);
+        assert_eq!(count([near, near], free, &context(true, false)), 3.0);
+        assert_eq!(count([near, near], free, &context(true, true)), 5.0);
+    }
+
+    #[test]
+    fn the_let_go_milestone_comes_just_before_the_release() {
+        let context = |cube_released, cube_at_rest| RewardContext {
+            cube_released,
+            cube_at_rest,
+            ..RewardContext::default()
+        };
+        let (near, far) = (0.01, 0.2);
+        let (free, cube1, cube2) = (
+            grasps(false, false),
+            grasps(true, false),
+            grasps(false, true),
+        );
+        // Without rest: after cube2 within the threshold.
+        let let_go = Stages {
+            at_rest: false,
+            let_go: true,
+        };
+        let count = |d, g, c: &RewardContext| milestones(d, 0.05, g, let_go, c);
+        assert_eq!(count([near, far], free, &context(true, true)), 2.0);
+        assert_eq!(count([near, near], cube1, &context(false, false)), 1.0);
+        assert_eq!(count([near, near], cube2, &context(false, false)), 3.0);
+        // Loosened, the fingers still touching: pays before the release.
+        assert_eq!(count([near, near], free, &context(false, false)), 4.0);
+        assert_eq!(count([near, near], free, &context(true, false)), 5.0);
+        // With rest: after it, so that a cube let go while moving pays neither.
+        let both = Stages {
+            at_rest: true,
+            let_go: true,
+        };
+        let count = |d, g, c: &RewardContext| milestones(d, 0.05, g, both, c);
+        assert_eq!(count([near, near], cube2, &context(false, true)), 4.0);
+        assert_eq!(count([near, near], free, &context(false, false)), 3.0);
+        assert_eq!(count([near, near], free, &context(true, false)), 3.0);
+        assert_eq!(count([near, near], free, &context(false, true)), 5.0);
+        assert_eq!(count([near, near], free, &context(true, true)), 6.0);
     }
 
     #[test]
@@ -772,14 +912,15 @@ mod tests {
             reward_type: RewardType::Dense,
             ..TaskContext::defaults(Stack::DESCRIPTOR.reward_terms)
         };
+        let free = Grasps::default();
         let task = Stack::build(&Default::default(), &context);
         let goals = [0.0f32, 0.0, 0.0, 0.0, 0.0, 0.05];
-        let verdict = task.judge(&goals, &goals, &RewardContext::default(), false);
+        let verdict = task.judge(&goals, &goals, &RewardContext::default(), free);
         assert_eq!(verdict.terms.stage, 0.0);
         let mut weighted = context.clone();
         weighted.reward_weights.stage = 3.0;
         let task = Stack::build(&Default::default(), &weighted);
-        let verdict = task.judge(&goals, &goals, &RewardContext::default(), false);
+        let verdict = task.judge(&goals, &goals, &RewardContext::default(), free);
         assert_eq!(verdict.terms.stage, 9.0);
         // With the rest milestone: cube2 held still at its goal pays once more.
         let still = RewardContext {
@@ -791,14 +932,27 @@ mod tests {
             ..StackConfig::default()
         };
         let task = Stack::build(&section, &weighted);
-        assert_eq!(task.judge(&goals, &goals, &still, false).terms.stage, 12.0);
+        assert_eq!(task.judge(&goals, &goals, &still, free).terms.stage, 12.0);
         let released = RewardContext {
             cube_released: true,
             ..still
         };
         assert_eq!(
-            task.judge(&goals, &goals, &released, false).terms.stage,
+            task.judge(&goals, &goals, &released, free).terms.stage,
             15.0
+        );
+        // With the let-go milestone too: cube2 let go, still, once more again.
+        let section = StackConfig {
+            stage_let_go: true,
+            ..section
+        };
+        let task = Stack::build(&section, &weighted);
+        let held = grasps(false, true);
+        assert_eq!(task.judge(&goals, &goals, &still, held).terms.stage, 12.0);
+        assert_eq!(task.judge(&goals, &goals, &still, free).terms.stage, 15.0);
+        assert_eq!(
+            task.judge(&goals, &goals, &released, free).terms.stage,
+            18.0
         );
     }
 }
