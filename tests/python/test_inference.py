@@ -410,6 +410,11 @@ EMULATED_CPUS = ("Haswell-v4", "Nehalem")
 #: 358 s of CI's budget; Nehalem's took 75 s. On the 2-core development machine Nehalem's 280
 #: steps took 100 s (stop 72), the suite's slowest test, so it runs 140 (one or two episodes).
 EMULATED_STEPS = {"Haswell-v4": 70, "Nehalem": 140}
+#: The OpenBLAS kernels (numpy's BLAS) each emulated CPU runs: the ones OpenBLAS picks on that
+#: CPU itself. Left to detect the CPU under qemu 7.2 (Debian 12), OpenBLAS picked a kernel
+#: Nehalem cannot run and `import numpy` died of an illegal instruction (2026-12-02, numpy
+#: 2.2.6 to 2.4.6 alike).
+OPENBLAS_CORETYPES = {"Haswell-v4": "Haswell", "Nehalem": "Nehalem"}
 
 
 #: The models the emulated CPUs run: every shipped one but those whose task loads an object set
@@ -463,7 +468,8 @@ def test_emulated_cpus_repeat_every_shipped_episode(tmp_path: Path, cpu: str) ->
         (tmp_path / f"{Path(name).stem}.json").write_text(json.dumps(config))
     command = ["qemu-x86_64", "-cpu", cpu, sys.executable, "-c", _EMULATED, str(tmp_path),
                str(MODELS / "evaluations.json"), str(EMULATED_STEPS[cpu])]  # fmt: skip
-    out = subprocess.run(command, capture_output=True, text=True, timeout=540)
+    env = {**os.environ, "OPENBLAS_CORETYPE": OPENBLAS_CORETYPES[cpu]}
+    out = subprocess.run(command, capture_output=True, text=True, timeout=540, env=env)
     assert out.returncode == 0, out.stderr[-2000:]
     results = json.loads(out.stdout.strip().splitlines()[-1])
     assert len(results) == len(EMULATED)
