@@ -870,40 +870,48 @@ mod tests {
 
     #[test]
     fn the_let_go_milestone_comes_just_before_the_release() {
-        let context = |cube_released, cube_at_rest| RewardContext {
-            cube_released,
-            cube_at_rest,
-            ..RewardContext::default()
-        };
         let (near, far) = (0.01, 0.2);
         let (free, cube1, cube2) = (
             grasps(false, false),
             grasps(true, false),
             grasps(false, true),
         );
-        // Without rest: after cube2 within the threshold.
         let let_go = Stages {
             at_rest: false,
             let_go: true,
         };
-        let count = |d, g, c: &RewardContext| milestones(d, 0.05, g, let_go, c);
-        assert_eq!(count([near, far], free, &context(true, true)), 2.0);
-        assert_eq!(count([near, near], cube1, &context(false, false)), 1.0);
-        assert_eq!(count([near, near], cube2, &context(false, false)), 3.0);
-        // Loosened, the fingers still touching: pays before the release.
-        assert_eq!(count([near, near], free, &context(false, false)), 4.0);
-        assert_eq!(count([near, near], free, &context(true, false)), 5.0);
-        // With rest: after it, so that a cube let go while moving pays neither.
         let both = Stages {
             at_rest: true,
             let_go: true,
         };
-        let count = |d, g, c: &RewardContext| milestones(d, 0.05, g, both, c);
-        assert_eq!(count([near, near], cube2, &context(false, true)), 4.0);
-        assert_eq!(count([near, near], free, &context(false, false)), 3.0);
-        assert_eq!(count([near, near], free, &context(true, false)), 3.0);
-        assert_eq!(count([near, near], free, &context(false, true)), 5.0);
-        assert_eq!(count([near, near], free, &context(true, true)), 6.0);
+        // (stages, distances, grasps, released, at rest): milestones.
+        let cases = [
+            // Without rest: after cube2 within the threshold.
+            (let_go, [near, far], free, true, true, 2.0),
+            (let_go, [near, near], cube1, false, false, 1.0),
+            (let_go, [near, near], cube2, false, false, 3.0),
+            // Loosened, the fingers still touching: pays before the release.
+            (let_go, [near, near], free, false, false, 4.0),
+            (let_go, [near, near], free, true, false, 5.0),
+            // With rest: after it, so that a cube let go while moving pays neither.
+            (both, [near, near], cube2, false, true, 4.0),
+            (both, [near, near], free, false, false, 3.0),
+            (both, [near, near], free, true, false, 3.0),
+            (both, [near, near], free, false, true, 5.0),
+            (both, [near, near], free, true, true, 6.0),
+        ];
+        for (stages, d, g, cube_released, cube_at_rest, expected) in cases {
+            let context = RewardContext {
+                cube_released,
+                cube_at_rest,
+                ..RewardContext::default()
+            };
+            assert_eq!(
+                milestones(d, 0.05, g, stages, &context),
+                expected,
+                "{stages:?} {d:?} {g:?} released {cube_released} at rest {cube_at_rest}"
+            );
+        }
     }
 
     #[test]
