@@ -9,13 +9,20 @@
 # tree (with its native module) for PYTHONPATH, if .venv's is not. As run: `run.sh` (its second part
 # stopped by hand after 3 M steps), `run.sh still` (stopped by hand after 8 M), then `run.sh second
 # --resume` (stopped by hand after 13 M). SECOND_RECIPES: the directory of recipe-SECOND.yml
-# (this one's unless set; a later record's run.sh sets it).
+# (this one's unless set; a later record's run.sh sets it). Options after `--resume` go to
+# `panda-rapier train` (`--timesteps N`: on to N steps past the recipe's); with `--resume` the
+# first part is not needed and not run.
 set -e
 d=$(dirname "$0")
 second=${1:-second}
 start="--init-from runs/ppo-Stack-first/checkpoints/latest.zip"
 if [ "${2:-}" = --resume ]; then
     start=--resume
+fi
+if [ $# -gt 2 ]; then
+    shift 2
+else
+    set --
 fi
 steps() { sed 's/.*"num_timesteps": *\([0-9]*\).*/\1/' "$1"; }
 keep() {
@@ -40,8 +47,8 @@ keep &
 keeper=$!
 trap 'kill $keeper' EXIT
 export RECIPES=$d
-if [ ! -f runs/ppo-Stack-first/model.zip ]; then
+if [ "$start" != --resume ] && [ ! -f runs/ppo-Stack-first/model.zip ]; then
     "$d/../ppo-Stack-stage-2026-12-01/run.sh" first
 fi
-RECIPES=${SECOND_RECIPES:-$d} "$d/../ppo-Stack-stage-2026-12-01/run.sh" "$second" $start
+RECIPES=${SECOND_RECIPES:-$d} "$d/../ppo-Stack-stage-2026-12-01/run.sh" "$second" $start "$@"
 sleep 20
