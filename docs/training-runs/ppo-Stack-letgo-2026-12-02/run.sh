@@ -8,7 +8,9 @@
 # (resume/: the run's last checkpoint, its state, run.json and evaluations; not best.zip, so
 # such a run's model.zip holds its last weights, whatever the CLI's last line says). As run: `run.sh`
 # (20,000,768 steps), then twice the train command that `run.sh --resume --timesteps N` runs,
-# with N 26000000 and 32000000 (32,002,048 steps).
+# with N 26000000 and 32000000 (32,002,048 steps). recipe-floor.yml (the gripper's exploration
+# floor at 0.6, 5 M steps from resume/) ran as
+# `RECIPES=$d ../ppo-Stack-stage-2026-12-01/run.sh floor --init-from $d/resume/latest.zip`.
 set -e
 d=$(dirname "$0")
 out=runs/ppo-Stack-letgo
