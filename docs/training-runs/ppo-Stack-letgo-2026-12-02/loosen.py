@@ -33,7 +33,9 @@ def loosen(path: str) -> dict[str, float]:
     let_go = np.zeros(EPISODES, dtype=bool)
     kept = np.zeros(EPISODES, dtype=bool)
     first_action = np.full(EPISODES, np.nan)
-    later_actions: list[list[float]] = [[] for _ in range(EPISODES)]
+    # The gripper actions over the steps after, summed, and how many.
+    later_sum = np.zeros(EPISODES)
+    later_count = np.zeros(EPISODES, dtype=int)
     for first, envs, obs in batches(env_id, options):
         done = np.zeros(ENVS, dtype=bool)
         rows = np.arange(first, first + ENVS)
@@ -57,8 +59,8 @@ def loosen(path: str) -> dict[str, float]:
             let_go[rows] |= watching & released
             last = watching & (since == AFTER)
             kept[rows[last]] = d[last, 1] < PRECISE
-            for k in np.flatnonzero(watching):
-                later_actions[rows[k]].append(float(action[k, -1]))
+            later_sum[rows[watching]] += action[watching, -1]
+            later_count[rows[watching]] += 1
             done |= terminated | truncated
             step += 1
     loosened = at >= 0
@@ -68,9 +70,9 @@ def loosen(path: str) -> dict[str, float]:
         out["let go"] = float(let_go[loosened].mean())
         out[f"within 2 cm {AFTER} steps on"] = float(kept[loosened].mean())
         out["gripper action then"] = float(np.median(first_action[loosened]))
-        means = [np.mean(a) for a, on in zip(later_actions, loosened, strict=True) if on and a]
-        if means:
-            out["after"] = float(np.median(means))
+        watched = loosened & (later_count > 0)
+        if watched.any():
+            out["after"] = float(np.median(later_sum[watched] / later_count[watched]))
     return out
 
 
