@@ -390,6 +390,87 @@ fn stage_milestones_pay_more(weight: f64, at_rest: bool, let_go: bool, seed: u64
     }
 }
 
+/// Stack's `release` term (off by default): along the scripted expert's stacks it pays its
+/// weight times the commanded gripper opening exactly while cube2 is within the threshold
+/// with cube1 placed and let go and both cubes at rest (with `task.stage_at_rest`), and 0
+/// otherwise; it pays while the expert opens its hand on the stack; `compute_reward`
+/// recomputes every step's reward with it bit for bit; and at weight 0 the rewards are the
+/// id's own.
+#[test]
+fn stack_s_release_term_pays_the_opening_while_cube2_is_ready_to_be_let_go() {
+    let (weight, threshold) = (2.0, EnvConfig::default().success_threshold as f32);
+    let with = |release: f64| {
+        let mut config = config(TaskKind::Stack, ControlMode::Ee, RewardType::Dense);
+        config.reward_weights = [("stage", 3.0), ("lift", 1.0), ("release", release)]
+            .into_iter()
+            .map(|(name, w)| (name.to_string(), w))
+            .collect();
+        config.task = TaskConfig::Stack(StackConfig {
+            stage_at_rest: true,
+            stage_let_go: true,
+            ..StackConfig::default()
+        });
+        config
+    };
+    for seed in [0, 1] {
+        let mut rewards = [vec![], vec![]];
+        let (mut achieved, mut desired, mut contexts) = (vec![], vec![], vec![]);
+        let mut paid = 0;
+        for (k, release) in [0.0, weight].into_iter().enumerate() {
+            let mut env = PandaEnv::new(with(release)).unwrap();
+            let mut policy = ScriptedPolicy::new(env.config()).unwrap();
+            env.reset(Some(seed), &ResetOptions::default()).unwrap();
+            let mut action = vec![0.0; env.action_dim()];
+            let keys = env.task().descriptor().reward_context_keys;
+            for step in 0..TaskKind::Stack.descriptor().episode_steps {
+                policy.act(env.observation(), &mut action).unwrap();
+                let t = env.step(&action).unwrap();
+                rewards[k].push(t.reward);
+                let (l, obs) = (env.layout(), env.observation());
+                let (a, d) = (&obs[l.achieved_goal()], &obs[l.desired_goal()]);
+                let gap = |i: usize| {
+                    (0..3)
+                        .map(|j| (a[3 * i + j] - d[3 * i + j]).powi(2))
+                        .sum::<f32>()
+                        .sqrt()
+                };
+                let ready = gap(0) < threshold
+                    && !t.info.flag("cube1_grasped")
+                    && gap(1) < threshold
+                    && t.info.flag("cube_at_rest");
+                let opening = t.info.number("gripper_opening");
+                let expected = if ready { release * opening } else { 0.0 };
+                let term = t.info.number("reward_release");
+                assert_eq!(term, expected, "seed {seed} step {step} weight {release}");
+                paid += usize::from(term > 0.0);
+                if release > 0.0 {
+                    achieved.extend_from_slice(a);
+                    desired.extend_from_slice(d);
+                    let mut row = vec![0.0f32; keys.len()];
+                    t.info.reward_context(keys, &mut row);
+                    contexts.extend(row);
+                }
+            }
+            if release > 0.0 {
+                let mut batch = vec![0.0; rewards[k].len()];
+                env.compute_rewards(&achieved, &desired, &contexts, &mut batch)
+                    .unwrap();
+                let bits = |r: &[f32]| r.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&batch), bits(&rewards[k]), "seed {seed}");
+            }
+        }
+        assert!(paid > 0, "seed {seed}: the expert's release paid nothing");
+        // Only the release term differs between the two weights.
+        let differ = rewards[0].iter().zip(&rewards[1]).filter(|(a, b)| a != b);
+        assert_eq!(differ.count(), paid, "seed {seed}");
+    }
+    let mut id =
+        PandaEnv::new(config(TaskKind::Stack, ControlMode::Ee, RewardType::Dense)).unwrap();
+    id.reset(Some(0), &ResetOptions::default()).unwrap();
+    let t = id.step(&[0.0, 0.0, 0.0, 1.0]).unwrap();
+    assert_eq!(t.info.number("reward_release"), 0.0);
+}
+
 /// Stack's start-state curriculum (`task.cube1_on_goal_probability`): cube1 starts resting on
 /// its goal in about that share of episodes and nowhere near it otherwise; at 0 the episodes
 /// are bit for bit the id's; a probability outside [0, 1] is refused by name.

@@ -381,9 +381,13 @@ pub(crate) fn migrate_reward_weights(document: &mut Value) -> Result<Vec<Depreca
         return Ok(Vec::new());
     };
     let terms = kind.descriptor().reward_terms;
-    let legacy_dump = LEGACY_WEIGHTS
-        .iter()
-        .all(|(name, _)| weights.contains_key(*name));
+    // All six and nothing else: a dump of today's configuration holds every term of the
+    // task's reward, Stack's `stage` among them, so Stack's (all six since `release` joined
+    // it) is not taken for one from before.
+    let legacy_dump = weights.len() == LEGACY_WEIGHTS.len()
+        && LEGACY_WEIGHTS
+            .iter()
+            .all(|(name, _)| weights.contains_key(*name));
     let mut notes = Vec::new();
     for &name in kind.terms_added_after_0_2() {
         if legacy_dump && weights.remove(name).is_some() {
@@ -443,6 +447,15 @@ mod tests {
         let today = r#"{"task": "stack", "reward_weights": {"lift": 1.0, "carry": 4.0}}"#;
         let (config, notes) = EnvConfig::from_json_with_notes(today).unwrap();
         assert_eq!(config.reward_weights_resolved()["lift"], 1.0);
+        assert!(notes.is_empty(), "{notes:?}");
+        // Today's dump (every term of the task's reward, the six old ones among them for
+        // Stack) reads back as it was written.
+        let set = r#"{"task": "stack", "reward_weights": {"lift": 1.0, "release": 3.0}}"#;
+        let config = EnvConfig::from_json(set).unwrap();
+        let dump = serde_json::to_string(&config.resolved()).unwrap();
+        let (again, notes) = EnvConfig::from_json_with_notes(&dump).unwrap();
+        assert_eq!(again.reward_weights_resolved()["lift"], 1.0);
+        assert_eq!(again.reward_weights_resolved()["release"], 3.0);
         assert!(notes.is_empty(), "{notes:?}");
     }
 

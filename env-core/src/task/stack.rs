@@ -51,7 +51,8 @@
 //! over the platform's height, clipped to [0, 1]; weight 0 unless `reward_weights` sets
 //! one) + `carry` times the mean of `1 - tanh(k d_i)` over the two cubes + `place` once
 //! placed + `stage` times the milestones reached (weight 0 unless `reward_weights` sets one,
-//! below), each with its `reward_weights` entry. Without `lift`,
+//! below) + `release`, the gripper opening the action commands while cube2 is ready to be let
+//! go (weight 0 unless set, below), each with its `reward_weights` entry. Without `lift`,
 //! lifting a cube pays only through its distance to a goal 0.2-0.5 m away: PPO from scratch
 //! carried cube1 to its goal in at most 4 % of episodes without it, 14 % with it
 //! (`docs/training.md`, 2026-11-27; neither stacked). The info's `cube_*` flags describe the
@@ -128,6 +129,20 @@
 //! `task.stage_let_go` (off by default) pays the weight once more for neither cube grasped
 //! (after the milestones before it), mirroring cube1's. Its input is `is_grasped`, an info
 //! entry of every id, read back as a context key.
+//!
+//! ## The release term
+//! With the let-go milestone PPO from scratch still never opened its hand on the stack, in
+//! 32 M steps: cube2 loosened only by slipping, with the gripper commanded shut, and was
+//! gripped again (`docs/training.md`, 2026-12-02). The gripper's drive saturates at its force
+//! limit for any command below about -0.2, so the squeeze, and every term that reads it, is
+//! the same from -1 to there: nothing rewards a command slightly less shut, and the fingers
+//! let go only when it is well above 0 for two steps, several standard deviations from where
+//! the policy's squeeze sits. `release`, pick-and-place's term (off by default), pays its
+//! weight times the gripper opening the action commands (0 closed, 1 fully open) while cube2
+//! is ready to be let go: within the threshold with cube1 placed and let go, and both cubes at
+//! rest with `task.stage_at_rest` (the milestones before the let-go one), grasped or not. It
+//! rewards every step of the command towards opening there. Its input is the info's
+//! `gripper_opening`, read back as a context key.
 
 use nalgebra::Vector3;
 use rand::Rng;
@@ -166,7 +181,7 @@ const CUBE1_GRASPED: InfoField = info_field(
 );
 
 /// The task's own info entries.
-const INFO_FIELDS: [InfoField; 13] = [
+const INFO_FIELDS: [InfoField; 14] = [
     IS_GRASPED,
     IS_LIFTED,
     info_field(
@@ -180,6 +195,7 @@ const INFO_FIELDS: [InfoField; 13] = [
     term_field(CARRY),
     term_field(PLACE),
     term_field(STAGE),
+    term_field(RELEASE),
     CUBE1_GRASPED,
     info_field(
         "cube_released",
@@ -220,8 +236,17 @@ const STAGE: RewardTerm = RewardTerm {
                   cube grasped; off by default)",
 };
 
+/// `release`: pick-and-place's term for opening the hand, paid while cube2 is held on the stack
+/// ready to be let go (off by default; the module documentation).
+const RELEASE: RewardTerm = RewardTerm {
+    description: "the gripper opening the action commands (0 closed, 1 fully open) while cube2 \
+                  is within the threshold of its goal with cube1 placed and let go (and both \
+                  cubes at rest with task.stage_at_rest; off by default)",
+    ..cube_terms::RELEASE
+};
+
 /// The reward's inputs that `compute_reward` reads back.
-const CONTEXT_KEYS: [&str; 8] = [
+const CONTEXT_KEYS: [&str; 9] = [
     "reward_reach",
     "reward_grasp",
     "reward_lift",
@@ -230,6 +255,7 @@ const CONTEXT_KEYS: [&str; 8] = [
     "cube_on_platform",
     "cube1_grasped",
     "is_grasped",
+    "gripper_opening",
 ];
 /// Where `cube1_grasped` is among [`CONTEXT_KEYS`].
 const CUBE1_GRASPED_KEY: usize = 6;
@@ -368,7 +394,7 @@ impl TaskSpec for Stack {
         has_platform: true,
         summary: "stack two cubes on the goal on the platform",
         info_fields: &INFO_FIELDS,
-        reward_terms: &[REACH, GRASP, LIFT, CARRY, PLACE, STAGE],
+        reward_terms: &[REACH, GRASP, LIFT, CARRY, PLACE, STAGE, RELEASE],
         reward_context_keys: &CONTEXT_KEYS,
     };
 
@@ -477,6 +503,7 @@ impl Stack {
         let is_placed =
             is_success && context.cube_released && context.cube_at_rest && context.cube_on_platform;
         let w = &self.context.reward_weights;
+        let progress = progress(d, threshold, grasps, self.stages(), context);
         let (reward, terms) = match self.context.reward_type {
             RewardType::Sparse => (if is_success { 0.0 } else { -1.0 }, RewardTerms::default()),
             RewardType::Dense => {
@@ -486,9 +513,12 @@ impl Stack {
                     lift: context.lift,
                     carry: w.carry as f32 * (self.closeness(d[0]) + self.closeness(d[1])) / 2.0,
                     place: if is_placed { w.place as f32 } else { 0.0 },
-                    release: 0.0,
-                    stage: w.stage as f32
-                        * milestones(d, threshold, grasps, self.stages(), context),
+                    release: if progress.ready {
+                        w.release as f32 * context.gripper_opening.clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    },
+                    stage: w.stage as f32 * progress.reached,
                 };
                 (terms.total(), terms)
             }
@@ -512,15 +542,26 @@ struct Stages {
     let_go: bool,
 }
 
-/// How many of the `stage` term's milestones (the module documentation) are reached, given
-/// the cubes' distances `d` to their goals and the optional milestones `stages` counts.
-fn milestones(
+/// How far along the `stage` term's chain of milestones (the module documentation) a state is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Progress {
+    /// How many milestones are reached.
+    reached: f32,
+    /// Whether cube2 is held on the stack ready to be let go: the milestones before the
+    /// let-go one reached (cube2 within the threshold with cube1 placed and let go, and both
+    /// cubes at rest with `task.stage_at_rest`), grasped or not. Where `release` pays.
+    ready: bool,
+}
+
+/// The `stage` chain's [`Progress`], given the cubes' distances `d` to their goals and the
+/// optional milestones `stages` counts.
+fn progress(
     d: [f64; 2],
     threshold: f64,
     grasps: Grasps,
     stages: Stages,
     context: &RewardContext,
-) -> f32 {
+) -> Progress {
     let first = d[0] < threshold;
     let let_go = first && !grasps.cube1;
     let second = let_go && d[1] < threshold;
@@ -530,16 +571,19 @@ fn milestones(
         .map(f32::from)
         .sum::<f32>();
     let mut last = second;
-    for (on, holds) in [
-        (stages.at_rest, context.cube_at_rest),
-        (stages.let_go, !grasps.either),
-    ] {
-        if on {
-            last &= holds;
-            reached += f32::from(last);
-        }
+    if stages.at_rest {
+        last &= context.cube_at_rest;
+        reached += f32::from(last);
     }
-    reached + f32::from(last && context.cube_released)
+    let ready = last;
+    if stages.let_go {
+        last &= !grasps.either;
+        reached += f32::from(last);
+    }
+    Progress {
+        reached: reached + f32::from(last && context.cube_released),
+        ready,
+    }
 }
 
 /// The distance `reach` measures, given the handled cube's centre minus the TCP position: to
@@ -755,6 +799,17 @@ impl Task for Stack {
 mod tests {
     use super::*;
 
+    /// How many of the `stage` term's milestones are reached ([`progress`]).
+    fn milestones(
+        d: [f64; 2],
+        threshold: f64,
+        grasps: Grasps,
+        stages: Stages,
+        context: &RewardContext,
+    ) -> f32 {
+        progress(d, threshold, grasps, stages, context).reached
+    }
+
     #[test]
     fn panda_layout_matches_the_documented_table() {
         let task = Stack::build(
@@ -912,6 +967,55 @@ mod tests {
                 "{stages:?} {d:?} {g:?} released {cube_released} at rest {cube_at_rest}"
             );
         }
+    }
+
+    #[test]
+    fn the_release_term_pays_the_commanded_opening_once_cube2_is_ready() {
+        let mut context = TaskContext {
+            reward_type: RewardType::Dense,
+            ..TaskContext::defaults(Stack::DESCRIPTOR.reward_terms)
+        };
+        context.reward_weights.release = 2.0;
+        let section = StackConfig {
+            stage_at_rest: true,
+            ..StackConfig::default()
+        };
+        let task = Stack::build(&section, &context);
+        let goals = [0.0f32, 0.0, 0.0, 0.0, 0.0, 0.05];
+        let cube2_off = [0.0f32, 0.0, 0.0, 0.0, 0.0, 0.2];
+        let reward = |achieved: &[f32], grasps, cube_at_rest| {
+            let inputs = RewardContext {
+                cube_at_rest,
+                gripper_opening: 0.75,
+                ..RewardContext::default()
+            };
+            task.judge(achieved, &goals, &inputs, grasps).terms.release
+        };
+        let (free, cube1, cube2) = (
+            grasps(false, false),
+            grasps(true, false),
+            grasps(false, true),
+        );
+        // Held on the stack, still: the opening pays, grasped or not.
+        assert_eq!(reward(&goals, cube2, true), 1.5);
+        assert_eq!(reward(&goals, free, true), 1.5);
+        // Not while moving (with the rest milestone), cube1 held or cube2 off its goal.
+        assert_eq!(reward(&goals, cube2, false), 0.0);
+        assert_eq!(reward(&goals, cube1, true), 0.0);
+        assert_eq!(reward(&cube2_off, cube2, true), 0.0);
+        // Without the rest milestone, moving does not matter; off unless weighted.
+        let task = Stack::build(&StackConfig::default(), &context);
+        let inputs = RewardContext {
+            gripper_opening: 0.75,
+            ..RewardContext::default()
+        };
+        assert_eq!(
+            task.judge(&goals, &goals, &inputs, cube2).terms.release,
+            1.5
+        );
+        context.reward_weights.release = 0.0;
+        let task = Stack::build(&section, &context);
+        assert_eq!(task.judge(&goals, &goals, &inputs, free).terms.release, 0.0);
     }
 
     #[test]
