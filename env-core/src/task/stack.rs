@@ -142,7 +142,10 @@
 //! is ready to be let go: within the threshold with cube1 placed and let go, and both cubes at
 //! rest with `task.stage_at_rest` (the milestones before the let-go one), grasped or not. It
 //! rewards every step of the command towards opening there. Its input is the info's
-//! `gripper_opening`, read back as a context key.
+//! `gripper_opening`, read back as a context key. From the let-go run's 32 M-step policy,
+//! 4 M steps with `release` 10 opened the hand fully wherever cube2 was ready, and every
+//! success was then placed (validation 0.305 placed); with 3 the command rose only to -0.41,
+//! still shut (`docs/training.md`, 2026-12-02, the afternoon session).
 
 use nalgebra::Vector3;
 use rand::Rng;
