@@ -346,17 +346,23 @@ fn stack_s_stage_term_pays_each_milestone_more_than_any_step_before_it() {
     }
 }
 
-fn stage_milestones_pay_more(weight: f64, at_rest: bool, let_go: bool, seed: u64) {
+/// `StackDense` (`ee`) with these reward weights and Stack's optional milestones.
+fn stack_dense(weights: &[(&str, f64)], at_rest: bool, let_go: bool) -> EnvConfig {
     let mut config = config(TaskKind::Stack, ControlMode::Ee, RewardType::Dense);
-    config.reward_weights = [("stage", weight), ("lift", 1.0)]
-        .into_iter()
-        .map(|(name, w)| (name.to_string(), w))
+    config.reward_weights = weights
+        .iter()
+        .map(|&(name, w)| (name.to_string(), w))
         .collect();
     config.task = TaskConfig::Stack(StackConfig {
         stage_at_rest: at_rest,
         stage_let_go: let_go,
         ..StackConfig::default()
     });
+    config
+}
+
+fn stage_milestones_pay_more(weight: f64, at_rest: bool, let_go: bool, seed: u64) {
+    let config = stack_dense(&[("stage", weight), ("lift", 1.0)], at_rest, let_go);
     let mut env = PandaEnv::new(config).unwrap();
     let mut policy = ScriptedPolicy::new(env.config()).unwrap();
     {
@@ -400,17 +406,11 @@ fn stage_milestones_pay_more(weight: f64, at_rest: bool, let_go: bool, seed: u64
 fn stack_s_release_term_pays_the_opening_while_cube2_is_ready_to_be_let_go() {
     let (weight, threshold) = (2.0, EnvConfig::default().success_threshold as f32);
     let with = |release: f64| {
-        let mut config = config(TaskKind::Stack, ControlMode::Ee, RewardType::Dense);
-        config.reward_weights = [("stage", 3.0), ("lift", 1.0), ("release", release)]
-            .into_iter()
-            .map(|(name, w)| (name.to_string(), w))
-            .collect();
-        config.task = TaskConfig::Stack(StackConfig {
-            stage_at_rest: true,
-            stage_let_go: true,
-            ..StackConfig::default()
-        });
-        config
+        stack_dense(
+            &[("stage", 3.0), ("lift", 1.0), ("release", release)],
+            true,
+            true,
+        )
     };
     for seed in [0, 1] {
         let mut rewards = [vec![], vec![]];
