@@ -4,14 +4,24 @@
 # is there already), then recipe-release.yml into runs/ppo-Stack-release from the first part's
 # last checkpoint (the tight record's run.sh, which keeps every checkpoint as
 # runs/ppo-Stack-NAME/ckpt-STEPS.zip; `--resume` goes on from runs/ppo-Stack-release's own
-# checkpoint). `run.sh finetune[10]`: recipe-finetune[10].yml into runs/ppo-Stack-finetune[10]
+# checkpoint or, where there is no such run, from this record's resume/: the run's last
+# checkpoint, its state, run.json and evaluations, so that a later session goes on without
+# the steps before). `run.sh finetune[10]`: recipe-finetune[10].yml into runs/ppo-Stack-finetune[10]
 # from the let-go record's 32 M-step checkpoint (its resume/latest.zip), keeping its
 # checkpoints the same way.
 set -e
 d=$(dirname "$0")
 case "${1:-}" in
     finetune*) name=$1 ;;
-    *) SECOND_RECIPES=$d exec "$d/../ppo-Stack-tight-2026-12-02/run.sh" release "$@" ;;
+    *)
+        out=runs/ppo-Stack-release
+        if [ "${1:-}" = --resume ] && [ ! -d "$out" ]; then
+            mkdir -p "$out/checkpoints"
+            cp "$d/resume/run.json" "$d/resume/evaluations.jsonl" "$out/"
+            cp "$d/resume/latest.zip" "$d/resume/state.json" "$out/checkpoints/"
+        fi
+        SECOND_RECIPES=$d exec "$d/../ppo-Stack-tight-2026-12-02/run.sh" release "$@"
+        ;;
 esac
 out=runs/ppo-Stack-$name
 steps() { sed 's/.*"num_timesteps": *\([0-9]*\).*/\1/' "$1"; }
