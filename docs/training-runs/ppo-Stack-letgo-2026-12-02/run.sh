@@ -13,10 +13,4 @@
 # `RECIPES=$d ../ppo-Stack-stage-2026-12-01/run.sh floor --init-from $d/resume/latest.zip`.
 set -e
 d=$(dirname "$0")
-out=runs/ppo-Stack-letgo
-if [ "${1:-}" = --resume ] && [ ! -d "$out" ]; then
-    mkdir -p "$out/checkpoints"
-    cp "$d/resume/run.json" "$d/resume/evaluations.jsonl" "$out/"
-    cp "$d/resume/latest.zip" "$d/resume/state.json" "$out/checkpoints/"
-fi
-SECOND_RECIPES=$d exec "$d/../ppo-Stack-tight-2026-12-02/run.sh" letgo "$@"
+RESUME_FROM=$d/resume SECOND_RECIPES=$d exec "$d/../ppo-Stack-tight-2026-12-02/run.sh" letgo "$@"

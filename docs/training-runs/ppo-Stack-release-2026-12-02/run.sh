@@ -14,13 +14,8 @@ d=$(dirname "$0")
 case "${1:-}" in
     finetune*) name=$1 ;;
     *)
-        out=runs/ppo-Stack-release
-        if [ "${1:-}" = --resume ] && [ ! -d "$out" ]; then
-            mkdir -p "$out/checkpoints"
-            cp "$d/resume/run.json" "$d/resume/evaluations.jsonl" "$out/"
-            cp "$d/resume/latest.zip" "$d/resume/state.json" "$out/checkpoints/"
-        fi
-        SECOND_RECIPES=$d exec "$d/../ppo-Stack-tight-2026-12-02/run.sh" release "$@"
+        RESUME_FROM=$d/resume SECOND_RECIPES=$d exec \
+            "$d/../ppo-Stack-tight-2026-12-02/run.sh" release "$@"
         ;;
 esac
 out=runs/ppo-Stack-$name

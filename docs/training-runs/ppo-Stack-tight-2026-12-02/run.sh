@@ -19,6 +19,13 @@ start="--init-from runs/ppo-Stack-first/checkpoints/latest.zip"
 if [ "${2:-}" = --resume ]; then
     start=--resume
 fi
+# RESUME_FROM: a directory holding a run's last checkpoint (latest.zip, state.json, run.json,
+# evaluations.jsonl) that `--resume` starts from where runs/ppo-Stack-SECOND is absent.
+if [ "$start" = --resume ] && [ -n "${RESUME_FROM:-}" ] && [ ! -d "runs/ppo-Stack-$second" ]; then
+    mkdir -p "runs/ppo-Stack-$second/checkpoints"
+    cp "$RESUME_FROM/run.json" "$RESUME_FROM/evaluations.jsonl" "runs/ppo-Stack-$second/"
+    cp "$RESUME_FROM/latest.zip" "$RESUME_FROM/state.json" "runs/ppo-Stack-$second/checkpoints/"
+fi
 if [ $# -gt 2 ]; then
     shift 2
 else
