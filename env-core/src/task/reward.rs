@@ -229,6 +229,12 @@ pub struct RewardTerms {
 }
 
 impl RewardContext {
+    /// The `release` term at weight `weight`: the weight times the commanded opening, clamped
+    /// to [0, 1] (paid where the task's condition holds).
+    pub fn release(&self, weight: f64) -> f32 {
+        weight as f32 * self.gripper_opening.clamp(0.0, 1.0)
+    }
+
     /// The info key of each field.
     pub const KEYS: [&'static str; 7] = [
         "reward_reach",
@@ -434,7 +440,7 @@ impl RewardFunction {
                     carry: w.carry as f32 * closeness(distance),
                     place: if is_placed { w.place as f32 } else { 0.0 },
                     release: if is_success {
-                        w.release as f32 * context.gripper_opening.clamp(0.0, 1.0)
+                        context.release(w.release)
                     } else {
                         0.0
                     },

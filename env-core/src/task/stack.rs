@@ -517,7 +517,7 @@ impl Stack {
                     carry: w.carry as f32 * (self.closeness(d[0]) + self.closeness(d[1])) / 2.0,
                     place: if is_placed { w.place as f32 } else { 0.0 },
                     release: if progress.ready {
-                        w.release as f32 * context.gripper_opening.clamp(0.0, 1.0)
+                        context.release(w.release)
                     } else {
                         0.0
                     },
